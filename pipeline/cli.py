@@ -1,0 +1,58 @@
+"""Command-line interface: a thin layer over library calls.
+
+Each subcommand lives in ``pipeline/commands/<name>.py`` and provides
+``add_args(parser)`` and ``run(args) -> int``; it is registered in
+:data:`COMMANDS`. This is the only module that configures logging, turns
+:class:`~pipeline.core.errors.PipelineError` into a message and an exit code,
+and exits.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+
+from pipeline import __version__
+from pipeline.core.errors import PipelineError
+
+#: subcommand name -> (module under pipeline.commands, one-line help)
+COMMANDS: dict[str, tuple[str, str]] = {}
+
+
+def register(name: str, module: str, help_text: str) -> None:
+    """Register subcommand ``name`` implemented by ``pipeline.commands.<module>``."""
+    COMMANDS[name] = (module, help_text)
+
+
+register("reduce", "reduce", "mesh, assemble and reduce one link; print its summary")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="pipeline", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"pipeline {__version__}")
+    parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
+    sub = parser.add_subparsers(dest="command", required=True)
+    for name, (module, help_text) in COMMANDS.items():
+        mod = importlib.import_module(f"pipeline.commands.{module}")
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        mod.add_args(p)
+        p.set_defaults(_run=mod.run)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``pipeline`` console command; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    level = logging.WARNING - 10 * min(args.verbose, 2)
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return int(args._run(args) or 0)
+    except PipelineError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130

@@ -1,0 +1,1 @@
+"""Shared foundations: errors, validation, array artifacts, progress."""

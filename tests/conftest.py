@@ -1,0 +1,16 @@
+"""Shared pytest configuration."""
+
+import importlib.util
+import os
+
+import pytest
+
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+
+def pytest_collection_modifyitems(config, items):
+    if importlib.util.find_spec("gmsh") is None:
+        skip = pytest.mark.skip(reason="gmsh not installed (pip install .[mesh])")
+        for item in items:
+            if "gmsh" in item.keywords:
+                item.add_marker(skip)
