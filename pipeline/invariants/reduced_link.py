@@ -1,0 +1,134 @@
+"""The reduced flexible link: the only thing the multibody side sees of the FE side.
+
+Like an ADAMS MNF, one :class:`ReducedLink` per link holds the mass-distribution
+matrices (DESIGN §2), the modal stiffness and mass, the frequencies, the
+modal translations ``phi`` and small rotations ``psi`` of every interface and
+marker, the undeformed mesh with full-field mode shapes (for rendering and
+stress recovery) and the provenance (settings, versions, input hash).
+
+Every array is expressed in the link's **body frame** = the frame of its
+reference interface (the proximal joint): origin at that interface's
+reference point, axes those of the joint frame. Units are SI.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, Mapping
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class FrameModes:
+    """A named frame on the link (interface or marker) and its modal motion.
+
+    Attributes
+    ----------
+    name : str
+    pose : (4, 4) undeformed pose of the frame in the body frame (rigid S0).
+    phi : (m, 3) translation of the frame origin per unit modal coordinate, m.
+    psi : (m, 3) small rotation of the frame per unit modal coordinate, rad.
+    kind : "interface" or "marker".
+    """
+
+    name: str
+    pose: np.ndarray
+    phi: np.ndarray
+    psi: np.ndarray
+    kind: str = "interface"
+
+
+@dataclass(frozen=True)
+class ReducedLink:
+    """Reduced flexible (or rigid, ``n_modes == 0``) link in its body frame.
+
+    Attributes
+    ----------
+    name : str
+    kind : "solid" or "beam".
+    body_pose : (4, 4) pose of the body frame in the geometry frame the link
+        was described in.
+    C : (4, 4) int rho r r^T dV (kg, kg m, kg m^2).
+    Cp : (m, 4, 4) C'_a = int rho r phi_a^T dV.
+    Cpp : (m, m, 4, 4) C''_ab = int rho phi_a phi_b^T dV.
+    modal_stiffness, modal_mass : (m, m) Phi^T K Phi, Phi^T M Phi.
+    frequencies_hz : (m,) frequencies of the clamped (or CB-reduced) modes.
+    mode_kinds : (m,) "normal" or "constraint".
+    frames : interfaces first (the reference one first), then markers.
+    nodes : (N, 3) FE nodes in the body frame, m.
+    cells : (k, p) volume (tetra10) or line cells into ``nodes``.
+    surface : (t, q) boundary triangles into ``nodes`` (empty for beams).
+    mode_shapes : (m, N, 3) nodal translations per unit modal coordinate, m.
+    meta : provenance and settings (JSON-serialisable).
+    """
+
+    name: str
+    kind: str
+    body_pose: np.ndarray
+    C: np.ndarray
+    Cp: np.ndarray
+    Cpp: np.ndarray
+    modal_stiffness: np.ndarray
+    modal_mass: np.ndarray
+    frequencies_hz: np.ndarray
+    mode_kinds: tuple[str, ...]
+    frames: tuple[FrameModes, ...]
+    nodes: np.ndarray
+    cells: np.ndarray
+    surface: np.ndarray
+    mode_shapes: np.ndarray
+    meta: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "meta", MappingProxyType(dict(self.meta)))
+        object.__setattr__(self, "mode_kinds", tuple(self.mode_kinds))
+        object.__setattr__(self, "frames", tuple(self.frames))
+
+    @property
+    def n_modes(self) -> int:
+        return int(self.frequencies_hz.shape[0])
+
+    @property
+    def mass(self) -> float:
+        """Total mass, kg."""
+        return float(self.C[3, 3])
+
+    @property
+    def center_of_mass(self) -> np.ndarray:
+        """(3,) centre of mass in the body frame, m."""
+        return self.C[:3, 3] / self.C[3, 3]
+
+    @property
+    def inertia_tensor(self) -> np.ndarray:
+        """(3, 3) inertia tensor about the centre of mass, body axes, kg m^2."""
+        c = self.center_of_mass
+        S = self.C[:3, :3] - self.mass * np.outer(c, c)
+        return np.trace(S) * np.eye(3) - S
+
+    def frame(self, name: str) -> FrameModes:
+        """The frame called ``name``; KeyError lists the available ones."""
+        for f in self.frames:
+            if f.name == name:
+                return f
+        raise KeyError(f"link {self.name!r} has no frame {name!r}; "
+                       f"available: {[f.name for f in self.frames]}")
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready summary: sizes, mass properties, frequencies, timings."""
+        return {
+            "name": self.name,
+            "kind": self.kind,
+            "nodes": int(self.nodes.shape[0]),
+            "dof": int(self.meta.get("n_dof", 0)),
+            "mass_kg": self.mass,
+            "center_of_mass_m": self.center_of_mass.tolist(),
+            "inertia_kgm2": self.inertia_tensor.tolist(),
+            "n_modes": self.n_modes,
+            "frequencies_hz": self.frequencies_hz.tolist(),
+            "mode_kinds": list(self.mode_kinds),
+            "frames": [f.name for f in self.frames],
+            "stage_seconds": dict(self.meta.get("stage_seconds", {})),
+            "input_hash": self.meta.get("input_hash", ""),
+        }

@@ -1,0 +1,88 @@
+"""Save and load :class:`ReducedLink` artifacts (``.npz``) with integrity checks.
+
+The file carries a format version and a SHA-256 digest of its arrays; a
+truncated, corrupted or foreign file raises :class:`ArtifactError` and is
+never half-used. Writes are atomic.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.core.atomic import save_npz_atomic
+from pipeline.core.errors import ArtifactError
+from pipeline.invariants.reduced_link import FrameModes, ReducedLink
+
+FORMAT = "pipeline.ReducedLink"
+FORMAT_VERSION = 1
+
+_ARRAYS = ("body_pose", "C", "Cp", "Cpp", "modal_stiffness", "modal_mass",
+           "frequencies_hz", "nodes", "cells", "surface", "mode_shapes")
+
+
+def _digest(arrays: dict[str, np.ndarray]) -> str:
+    h = hashlib.sha256()
+    for key in sorted(arrays):
+        a = np.ascontiguousarray(arrays[key])
+        h.update(key.encode())
+        h.update(str(a.dtype).encode())
+        h.update(str(a.shape).encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def _to_arrays(link: ReducedLink) -> dict[str, np.ndarray]:
+    arrays = {k: np.asarray(getattr(link, k)) for k in _ARRAYS}
+    arrays["frame_pose"] = np.array([f.pose for f in link.frames]).reshape(-1, 4, 4)
+    arrays["frame_phi"] = np.array([f.phi for f in link.frames]).reshape(
+        len(link.frames), link.n_modes, 3)
+    arrays["frame_psi"] = np.array([f.psi for f in link.frames]).reshape(
+        len(link.frames), link.n_modes, 3)
+    return arrays
+
+
+def save_reduced_link(link: ReducedLink, path: str | Path) -> Path:
+    """Write ``link`` to ``path`` (.npz) atomically; return the path."""
+    arrays = _to_arrays(link)
+    header = {
+        "format": FORMAT,
+        "version": FORMAT_VERSION,
+        "name": link.name,
+        "kind": link.kind,
+        "mode_kinds": list(link.mode_kinds),
+        "frames": [[f.name, f.kind] for f in link.frames],
+        "meta": dict(link.meta),
+        "digest": _digest(arrays),
+    }
+    return save_npz_atomic(path, header=np.array(json.dumps(header)), **arrays)
+
+
+def load_reduced_link(path: str | Path) -> ReducedLink:
+    """Read a :class:`ReducedLink`; raise ArtifactError if it is not intact."""
+    path = Path(path)
+    if not path.is_file():
+        raise ArtifactError(f"{path}: reduced-link artifact not found")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            header = json.loads(str(data["header"]))
+            arrays = {k: data[k] for k in data.files if k != "header"}
+    except (zipfile.BadZipFile, OSError, ValueError, KeyError, EOFError) as exc:
+        raise ArtifactError(f"{path}: unreadable reduced-link artifact ({exc})") from exc
+    if header.get("format") != FORMAT or header.get("version") != FORMAT_VERSION:
+        raise ArtifactError(f"{path}: not a {FORMAT} v{FORMAT_VERSION} file")
+    if _digest(arrays) != header.get("digest"):
+        raise ArtifactError(f"{path}: content digest mismatch (corrupted artifact)")
+    frames = tuple(
+        FrameModes(name, arrays["frame_pose"][i], arrays["frame_phi"][i],
+                   arrays["frame_psi"][i], kind)
+        for i, (name, kind) in enumerate(header["frames"])
+    )
+    return ReducedLink(
+        name=header["name"], kind=header["kind"], mode_kinds=tuple(header["mode_kinds"]),
+        frames=frames, meta=header["meta"], **{k: arrays[k] for k in _ARRAYS},
+    )

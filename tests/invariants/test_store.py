@@ -1,0 +1,84 @@
+"""Artifact round trip, integrity checks and body-frame transforms."""
+
+import numpy as np
+import pytest
+
+from pipeline.core.errors import ArtifactError
+from pipeline.invariants.body_frame import congruent, inverse_pose, points_to_body, pose
+from pipeline.invariants.reduced_link import FrameModes, ReducedLink
+from pipeline.invariants.store import load_reduced_link, save_reduced_link
+
+
+def _random_link(m=3, n=20, seed=0):
+    rng = np.random.default_rng(seed)
+    frames = tuple(
+        FrameModes(f"f{i}", pose(rng.normal(size=3), np.eye(3)), rng.normal(size=(m, 3)),
+                   rng.normal(size=(m, 3)), "interface" if i < 2 else "marker")
+        for i in range(3)
+    )
+    C = rng.normal(size=(4, 4))
+    return ReducedLink(
+        name="arm", kind="solid", body_pose=np.eye(4), C=C + C.T,
+        Cp=rng.normal(size=(m, 4, 4)), Cpp=rng.normal(size=(m, m, 4, 4)),
+        modal_stiffness=np.diag(rng.uniform(1, 2, m)), modal_mass=np.eye(m),
+        frequencies_hz=np.sort(rng.uniform(1, 100, m)), mode_kinds=("normal",) * m,
+        frames=frames, nodes=rng.normal(size=(n, 3)), cells=np.arange(20).reshape(2, 10),
+        surface=np.arange(12).reshape(2, 6), mode_shapes=rng.normal(size=(m, n, 3)),
+        meta={"input_hash": "abc", "settings": {"n_modes": m}},
+    )
+
+
+def test_round_trip_is_exact(tmp_path):
+    link = _random_link()
+    path = save_reduced_link(link, tmp_path / "arm.npz")
+    back = load_reduced_link(path)
+    for name in ("C", "Cp", "Cpp", "modal_stiffness", "frequencies_hz", "nodes", "cells",
+                 "surface", "mode_shapes", "body_pose"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(link, name))
+    assert [f.name for f in back.frames] == ["f0", "f1", "f2"]
+    assert back.frames[2].kind == "marker"
+    np.testing.assert_array_equal(back.frame("f1").psi, link.frame("f1").psi)
+    assert back.meta["settings"] == {"n_modes": 3}
+    assert back.mode_kinds == link.mode_kinds
+
+
+def test_truncated_and_corrupted_files_are_rejected(tmp_path):
+    path = save_reduced_link(_random_link(), tmp_path / "arm.npz")
+    raw = path.read_bytes()
+    path.write_bytes(raw[: len(raw) // 2])
+    with pytest.raises(ArtifactError, match="unreadable"):
+        load_reduced_link(path)
+    with pytest.raises(ArtifactError, match="not found"):
+        load_reduced_link(tmp_path / "missing.npz")
+
+
+def test_tampered_array_fails_digest(tmp_path):
+    link = _random_link()
+    path = save_reduced_link(link, tmp_path / "arm.npz")
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    arrays["C"] = arrays["C"] + 1e-12
+    np.savez_compressed(path, **arrays)
+    with pytest.raises(ArtifactError, match="digest"):
+        load_reduced_link(path)
+
+
+def test_body_frame_congruence_matches_direct_integration():
+    """Moments of a point cloud transformed congruently equal moments of moved points."""
+    rng = np.random.default_rng(1)
+    x = rng.normal(size=(50, 3))
+    m = rng.uniform(0.1, 1.0, 50)
+    phi = rng.normal(size=(50, 3))
+    th = 0.7
+    R = np.array([[np.cos(th), -np.sin(th), 0], [np.sin(th), np.cos(th), 0], [0, 0, 1.0]])
+    H = pose(np.array([0.3, -0.2, 0.5]), R)
+    rbar = np.c_[x, np.ones(50)]
+    pbar = np.c_[phi, np.zeros(50)]
+    C = np.einsum("g,gi,gj->ij", m, rbar, rbar)
+    Cp = np.einsum("g,gi,gj->ij", m, rbar, pbar)
+    xb = points_to_body(H, x)
+    rb = np.c_[xb, np.ones(50)]
+    pb = np.c_[phi @ R, np.zeros(50)]
+    Hi = inverse_pose(H)
+    np.testing.assert_allclose(congruent(Hi, C), np.einsum("g,gi,gj->ij", m, rb, rb), atol=1e-12)
+    np.testing.assert_allclose(congruent(Hi, Cp), np.einsum("g,gi,gj->ij", m, rb, pb), atol=1e-12)
