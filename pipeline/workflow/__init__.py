@@ -1,0 +1,1 @@
+"""User-facing specs (YAML, pydantic) converted to plain arguments for the stages."""

@@ -1,0 +1,164 @@
+"""Link specification (YAML) for ``pipeline reduce`` and the workflow ``links:``.
+
+A link spec says how to build one reduced link: geometry and mesh, material
+or beam sections, named interfaces (joint frames), markers, point masses and
+the modes to keep. Fields are SI units. Unknown keys are rejected.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any, Literal, Union
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from pipeline.workflow.yaml_io import config_error, load_yaml
+
+Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+Mat3 = Annotated[list[Vec3], Field(min_length=3, max_length=3)]
+
+
+class Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class MaterialSpec(Strict):
+    E: float = Field(gt=0, description="Young's modulus, Pa")
+    nu: float = Field(gt=-1, lt=0.5, description="Poisson's ratio, in (-1, 0.5)")
+    rho: float = Field(gt=0, description="density, kg/m^3")
+
+
+class SectionSpec(Strict):
+    A: float = Field(gt=0, description="area, m^2")
+    Iy: float = Field(gt=0, description="second moment about local y, m^4")
+    Iz: float = Field(gt=0, description="second moment about local z, m^4")
+    J: float = Field(gt=0, description="torsion constant, m^4")
+    y_axis: Vec3 | None = Field(None, description="direction of the local y axis (link frame)")
+    members: list[int] | None = Field(
+        None, description="polyline members (0-based) with this section; default all")
+
+
+class SolidGeometrySpec(Strict):
+    type: Literal["solid"]
+    recipe: str = Field(description="bar | plate_with_bores | bent_plate | box_section | geo | step")
+    params: dict[str, Any] = Field(default_factory=dict, description="recipe parameters, SI")
+    path: str | None = Field(None, description=".geo or STEP file, relative to the spec file")
+    mesh_size: float = Field(gt=0, description="target element size, m")
+    order: Literal[1, 2] = Field(2, description="geometric order of the tetrahedra")
+
+
+class BeamGeometrySpec(Strict):
+    type: Literal["beam"]
+    points: list[Vec3] = Field(min_length=2, description="polyline vertices, m")
+    vertex_names: list[str] = Field(default_factory=list, description="names of the vertices")
+    element_size: float = Field(gt=0, description="target beam element length, m")
+
+
+class GroupSelector(Strict):
+    type: Literal["group"]
+    name: str
+
+
+class CylinderSelector(Strict):
+    type: Literal["cylinder"]
+    point: Vec3 = Field(description="a point on the axis, m")
+    axis: Vec3
+    radius: float = Field(gt=0, description="m")
+    tol: float | None = Field(None, gt=0, description="radial tolerance, m")
+
+
+class PlaneSelector(Strict):
+    type: Literal["plane"]
+    point: Vec3
+    normal: Vec3
+    tol: float | None = Field(None, gt=0, description="m")
+
+
+class NearestSelector(Strict):
+    type: Literal["nearest"]
+    point: Vec3
+
+
+class BoxSelector(Strict):
+    type: Literal["box"]
+    lo: Vec3
+    hi: Vec3
+
+
+Selector = Annotated[
+    Union[GroupSelector, CylinderSelector, PlaneSelector, NearestSelector, BoxSelector],
+    Field(discriminator="type"),
+]
+
+
+class InterfaceSpec(Strict):
+    name: str
+    selector: Selector
+    origin: Vec3 | None = Field(
+        None, description="reference point, m (default: the selector's point)")
+    z_axis: Vec3 | None = Field(
+        None, description="joint axis (default: cylinder axis, plane normal or z)")
+    x_axis: Vec3 | None = Field(None, description="frame x axis (default: chosen normal to z)")
+    kind: Literal["rbe2", "rbe3"] = Field("rbe2", description="rigid tie or averaging")
+
+
+class MarkerSpec(Strict):
+    name: str
+    position: Vec3 = Field(description="m")
+    z_axis: Vec3 | None = None
+    x_axis: Vec3 | None = None
+    radius: float | None = Field(
+        None, gt=0, description="fit the marker motion over nodes within this radius, m")
+
+
+class PointMassSpec(Strict):
+    name: str
+    position: Vec3 = Field(description="m")
+    mass: float = Field(gt=0, description="kg")
+    inertia: Mat3 | None = Field(None, description="about its own centre, kg m^2")
+
+
+class ModesSpec(Strict):
+    count: int | None = Field(None, ge=0, description="number of fixed-interface modes")
+    f_max: float | None = Field(None, gt=0, description="keep modes up to this frequency, Hz")
+    craig_bampton: bool = Field(False, description="add constraint modes of the other interfaces")
+
+    @model_validator(mode="after")
+    def _one_rule(self):
+        if self.count is None and self.f_max is None:
+            raise ValueError("give modes.count or modes.f_max")
+        return self
+
+
+class LinkSpec(Strict):
+    name: str = Field(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*$")
+    geometry: Annotated[Union[SolidGeometrySpec, BeamGeometrySpec], Field(discriminator="type")]
+    material: MaterialSpec
+    sections: list[SectionSpec] = Field(default_factory=list, description="beam sections")
+    interfaces: list[InterfaceSpec] = Field(min_length=1)
+    reference: str = Field(description="interface that is the body frame (modes clamped there)")
+    markers: list[MarkerSpec] = Field(default_factory=list)
+    point_masses: list[PointMassSpec] = Field(default_factory=list)
+    modes: ModesSpec
+
+    @model_validator(mode="after")
+    def _names(self):
+        names = [i.name for i in self.interfaces] + [m.name for m in self.markers]
+        dup = {n for n in names if names.count(n) > 1}
+        if dup:
+            raise ValueError(f"duplicate frame names {sorted(dup)}")
+        if self.reference not in [i.name for i in self.interfaces]:
+            raise ValueError(f"reference {self.reference!r} is not an interface; "
+                             f"interfaces: {[i.name for i in self.interfaces]}")
+        if self.geometry.type == "beam" and not self.sections:
+            raise ValueError("a beam link needs sections")
+        return self
+
+
+def load_link_spec(path: str | Path) -> LinkSpec:
+    """Read and validate a link spec YAML; ConfigError names file, line and field."""
+    data, lines = load_yaml(path)
+    try:
+        return LinkSpec.model_validate(data)
+    except ValidationError as exc:
+        raise config_error(exc, path, data, lines) from None
