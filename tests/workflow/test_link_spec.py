@@ -1,0 +1,65 @@
+"""Link-spec validation: every error names file, line, YAML path and expectation."""
+
+import textwrap
+
+import pytest
+
+from pipeline.core.errors import ConfigError
+from pipeline.workflow.link_spec import load_link_spec
+
+GOOD = """\
+name: bar
+geometry:
+  type: solid
+  recipe: bar
+  params: {L: 0.4, b: 0.008, h: 0.004}
+  mesh_size: 0.004
+material: {E: 70.0e9, nu: 0.3, rho: 2700}
+interfaces:
+  - name: root
+    selector: {type: plane, point: [0, 0, 0], normal: [1, 0, 0]}
+  - name: tip
+    selector: {type: plane, point: [0.4, 0, 0], normal: [1, 0, 0]}
+reference: root
+modes: {count: 6}
+"""
+
+
+def _write(tmp_path, text):
+    p = tmp_path / "link.yaml"
+    p.write_text(textwrap.dedent(text))
+    return p
+
+
+def test_good_spec_loads(tmp_path):
+    spec = load_link_spec(_write(tmp_path, GOOD))
+    assert spec.name == "bar" and spec.geometry.order == 2
+    assert spec.interfaces[0].kind == "rbe2"
+
+
+@pytest.mark.parametrize(
+    "old,new,expected",
+    [
+        ("mesh_size: 0.004", "mesh_sise: 0.004", r"link.yaml:6: geometry.mesh_sise: unknown key"),
+        ("rho: 2700", "rho: -1", r"link.yaml:7: material.rho: Input should be greater than 0"),
+        ("nu: 0.3", "nu: 0.5", r"link.yaml:7: material.nu: Input should be less than 0.5"),
+        ("reference: root", "reference: hub", r"link.yaml:1: <root>:.*'hub' is not an interface"),
+        ("type: plane, point: [0, 0, 0]", "type: plain, point: [0, 0, 0]",
+         r"link.yaml:10: interfaces\[0\].selector: Input tag 'plain'"),
+        ("modes: {count: 6}", "modes: {craig_bampton: true}",
+         r"link.yaml:14: modes: .*modes.count or modes.f_max"),
+    ],
+)
+def test_bad_specs_name_line_and_path(tmp_path, old, new, expected):
+    assert old in GOOD
+    with pytest.raises(ConfigError, match=expected):
+        load_link_spec(_write(tmp_path, GOOD.replace(old, new)))
+
+
+def test_duplicate_key_and_syntax_error(tmp_path):
+    with pytest.raises(ConfigError, match=r":14: reference: duplicate key"):
+        load_link_spec(_write(tmp_path, GOOD.replace("modes:", "reference: tip\nmodes:")))
+    with pytest.raises(ConfigError, match=r"link.yaml:\d+: invalid YAML"):
+        load_link_spec(_write(tmp_path, GOOD + "  bad: [1, 2\n"))
+    with pytest.raises(ConfigError, match="file not found"):
+        load_link_spec(tmp_path / "nope.yaml")
