@@ -83,6 +83,9 @@ def beam_moments(model: FemModel, U: np.ndarray) -> MassMoments:
     Cpp[:, :, :3, :3] = np.einsum("kg,kgai,kgbj->abij", mass_dx, u, u, optimize=True)
     Cpp[:, :, :3, :3] += np.einsum("kg,kc,kgaci,kgbcj->abij", dx, lam, t_cross_e, t_cross_e,
                                    optimize=True)
+    # exact symmetries C = C^T, C''_ab = C''_ba^T (einsum orders sum differently)
+    C = 0.5 * (C + C.T)
+    Cpp = 0.5 * (Cpp + Cpp.transpose(1, 0, 3, 2))
     return MassMoments(C, Cp, Cpp)
 
 
