@@ -69,7 +69,7 @@ class P2Topology:
 
     @property
     def n_vertices(self) -> int:
-        return int(self.mesh.p.shape[1])
+        return int(self.mesh.t.max()) + 1
 
 
 def p2_topology(mesh: MeshData, where: str) -> P2Topology:
