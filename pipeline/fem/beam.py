@@ -40,7 +40,7 @@ from pipeline.fem.model import FemModel
 from pipeline.fem.section import BeamSection, check_section, element_frames
 from pipeline.meshing.mesh_data import MeshData
 
-__all__ = ["assemble_beam", "beam_moments", "SECTION_COLUMNS"]
+__all__ = ["assemble_beam", "beam_moments", "sections_by_member", "SECTION_COLUMNS"]
 
 logger = logging.getLogger(__name__)
 
@@ -118,6 +118,62 @@ def assemble_beam(
     return FemModel(name, "beam", mesh.points, node_dofs, stiffness, mass, extras)
 
 
+def sections_by_member(
+    mesh: MeshData, member_sections: Sequence[BeamSection], name: str
+) -> tuple[BeamSection, ...]:
+    """One section per line element from one section per polyline member.
+
+    Member ``i`` is the node group ``mesh.groups["member_<i>"]`` (as written by
+    the gmsh beam mesher); an element belongs to the member holding both its
+    nodes.
+
+    Parameters
+    ----------
+    mesh : MeshData
+        Beam mesh with ``cells["line"]`` (k, 2) and the member groups.
+    member_sections : sequence of BeamSection
+        Section of member 0, 1, ...
+    name : str
+        Link name for error messages.
+
+    Returns
+    -------
+    tuple of k BeamSection, in cell order.
+
+    Raises
+    ------
+    ConfigError
+        Missing member group, or an element in no member or in two.
+
+    Examples
+    --------
+    >>> mesh = MeshData(points=[[0, 0, 0], [1, 0, 0], [1, 1, 0]], cells={"line": [[0, 1], [1, 2]]},
+    ...                 kind="beam", groups={"member_0": [0, 1], "member_1": [1, 2]})
+    >>> a, b = (BeamSection(A=x, Iy=1, Iz=1, J=1, E=1, G=1, rho=1) for x in (1.0, 2.0))
+    >>> [s.A for s in sections_by_member(mesh, [a, b], "frame")]
+    [1.0, 2.0]
+    """
+    where = f"link '{name}'"
+    cells = _line_cells(mesh, where)
+    member_of = np.full(len(cells), -1)
+    for i in range(len(member_sections)):
+        group = mesh.groups.get(f"member_{i}")
+        if group is None:
+            raise ConfigError(f"{where}: sections given for {len(member_sections)} members but "
+                              f"the mesh has no node group 'member_{i}'")
+        inside = np.all(np.isin(cells, group), axis=1)
+        if np.any(inside & (member_of >= 0)):
+            raise ConfigError(f"{where}: elements belong to members "
+                              f"{member_of[inside & (member_of >= 0)].max()} "
+                              f"and {i}; expected each element in one member")
+        member_of[inside] = i
+    if np.any(member_of < 0):
+        e = int(np.flatnonzero(member_of < 0)[0])
+        raise ConfigError(f"{where}: element {e} {cells[e].tolist()} lies in no member group "
+                          f"'member_0'..'member_{len(member_sections) - 1}'")
+    return tuple(member_sections[i] for i in member_of)
+
+
 def local_matrices(lengths: np.ndarray, props: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Element stiffness and consistent mass (k, 12, 12) in the element frames.
 
@@ -160,7 +216,8 @@ def _unit_matrices(lengths: np.ndarray) -> tuple[np.ndarray, ...]:
     k = len(lengths)
     coords = np.zeros(2 * k)
     coords[1::2] = lengths  # element e on [0, L_e]: points 2e and 2e + 1
-    line = MeshLine1(coords[None, :], np.arange(2 * k).reshape(k, 2).T)
+    connectivity = np.ascontiguousarray(np.arange(2 * k).reshape(k, 2).T)  # skfem wants C order
+    line = MeshLine1(coords[None, :], connectivity)
     p1, herm = Basis(line, ElementLineP1()), Basis(line, ElementLineHermite())
 
     grad_grad = BilinearForm(lambda u, v, _: d(u)[0] * d(v)[0])

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from pipeline.core.errors import ConfigError, MeshError
-from pipeline.fem.beam import assemble_beam
+from pipeline.fem.beam import assemble_beam, sections_by_member
 from pipeline.fem.section import BeamSection, check_section, element_frames
 from pipeline.meshing.mesh_data import MeshData
 
@@ -141,3 +141,16 @@ def test_assembly_input_errors():
     empty = MeshData(points=pts, cells={}, kind="beam")
     with pytest.raises(MeshError, match=r"cells\['line'\]"):
         assemble_beam(empty, sec, "boom")
+
+
+def test_sections_by_member_follows_member_groups():
+    pts = [[0, 0, 0], [0.5, 0, 0], [1, 0, 0], [1, 1, 0], [1, 2, 0]]
+    cells = [[2, 3], [0, 1], [3, 4], [1, 2]]  # any cell order
+    groups = {"member_0": [0, 1, 2], "member_1": [2, 3, 4]}
+    mesh = MeshData(points=pts, cells={"line": cells}, kind="beam", groups=groups)
+    s0, s1 = BeamSection(**SEC), BeamSection(**{**SEC, "A": 1e-3})
+    assert sections_by_member(mesh, [s0, s1], "frame") == (s1, s0, s1, s0)
+    with pytest.raises(ConfigError, match="link 'frame': .* no node group 'member_2'"):
+        sections_by_member(mesh, [s0, s1, s0], "frame")
+    with pytest.raises(ConfigError, match=r"link 'frame': element 0 \[2, 3\] lies in no member"):
+        sections_by_member(mesh, [s0], "frame")

@@ -173,3 +173,22 @@ def test_rigid_motion_fields(boom):
     mm = beam_moments(model, U)
     assert rel_err(mm.Cp, np.einsum("ij,akj->aik", mm.C, W)) < 1e-12
     assert rel_err(mm.Cpp, np.einsum("aij,jk,blk->abil", W, mm.C, W)) < 1e-12
+
+
+def test_beam_with_point_masses_through_mass_moments(boom):
+    """The dispatch in mass_moments adds point bodies to the beam kernel: the
+    seed's lumped boom masses (1150, 952, 752 kg at the member ends) keep
+    tr(C''_ab) = U_a^T M U_b and add m p to the first moment."""
+    from pipeline.fem.point_masses import PointMass, add_point_masses
+
+    model, _ = boom
+    ends = model.nodes[[5, 10, 15]]
+    bodies = [PointMass(f"m{i}", p + [0.0, 0.0, 0.3], m, np.diag([10.0, 12.0, 15.0]))
+              for i, (p, m) in enumerate(zip(ends, (1150.0, 952.0, 752.0)))]
+    loaded = add_point_masses(model, bodies, "link 'boom'")
+    U = np.random.default_rng(11).standard_normal((model.n_dof, 3))
+    mm = mass_moments(loaded, U)
+    assert rel_err(np.trace(mm.Cpp, axis1=2, axis2=3), U.T @ loaded.mass @ U) < 1e-12
+    bare = beam_moments(model, U).C
+    first = sum(b.mass * np.append(b.position, 1.0) for b in bodies)
+    np.testing.assert_allclose(mm.C[:, 3] - bare[:, 3], first, rtol=1e-12)
