@@ -1,5 +1,36 @@
-"""Link geometry -> mesh (gmsh is imported lazily, only inside this package)."""
+"""Link geometry -> mesh (gmsh is imported lazily, only inside ``gmsh_build``).
 
+Public API::
+
+    SolidGeometry, BeamGeometry      what to mesh (frozen, validated)
+    MESH_RECIPES                     recipe name -> OCC builder
+    build_mesh(geometry, name)       -> MeshData
+    PhysicalGroup, CylinderSurface, PlaneFace, NearestNode, BoxRegion, SELECTORS
+"""
+
+from pipeline.meshing.geometry import BeamGeometry, SolidGeometry
+from pipeline.meshing.gmsh_build import build_mesh
 from pipeline.meshing.mesh_data import MeshData
+from pipeline.meshing.recipes import MESH_RECIPES
+from pipeline.meshing.selectors import (
+    SELECTORS,
+    BoxRegion,
+    CylinderSurface,
+    NearestNode,
+    PhysicalGroup,
+    PlaneFace,
+)
 
-__all__ = ["MeshData"]
+__all__ = [
+    "MeshData",
+    "SolidGeometry",
+    "BeamGeometry",
+    "MESH_RECIPES",
+    "build_mesh",
+    "SELECTORS",
+    "PhysicalGroup",
+    "CylinderSurface",
+    "PlaneFace",
+    "NearestNode",
+    "BoxRegion",
+]

@@ -1,0 +1,344 @@
+"""Descriptions of link geometry: what to mesh, not how (no gmsh here).
+
+Two kinds of link are meshed:
+
+* :class:`SolidGeometry` -- an OCC solid built by a named recipe
+  (:data:`pipeline.meshing.recipes.MESH_RECIPES`) or read from a ``.geo`` /
+  STEP file, meshed with tetrahedra of order 1 or 2;
+* :class:`BeamGeometry` -- a polyline of straight members, meshed with
+  2-node line elements.
+
+Both are frozen and validated on construction; recipe parameters are checked
+by the recipe itself when the mesh is built (it knows its own fields).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any, Mapping
+
+import numpy as np
+
+from pipeline.core.errors import ConfigError
+from pipeline.core.validate import check_positive, validate_array
+
+
+@dataclass(frozen=True)
+class SolidGeometry:
+    """A solid link to be meshed with tetrahedra.
+
+    Parameters
+    ----------
+    recipe : str
+        Key of :data:`pipeline.meshing.recipes.MESH_RECIPES` (``bar``,
+        ``plate_with_bores``, ``bent_plate``, ``box_section``, ``geo``, ``step``).
+    params : Mapping[str, Any]
+        Recipe parameters, SI units (m); see each recipe's docstring.
+    mesh_size : float
+        Target element edge length (characteristic length), m.
+    order : int
+        Geometric and nodal order of the tetrahedra: 1 (tetra) or 2 (tetra10,
+        edge nodes placed on the CAD surfaces).
+    path : Path, optional
+        The ``.geo`` or STEP file of the ``geo`` / ``step`` recipes.
+
+    Examples
+    --------
+    >>> g = SolidGeometry("bar", {"L": 0.4, "b": 0.008, "h": 0.004}, mesh_size=0.002)
+    >>> g.order, g.params["L"]
+    (2, 0.4)
+    """
+
+    recipe: str
+    params: Mapping[str, Any]
+    mesh_size: float
+    order: int = 2
+    path: Path | None = None
+
+    def __post_init__(self) -> None:
+        from pipeline.meshing.recipes import MESH_RECIPES  # no gmsh import there
+
+        if not isinstance(self.recipe, str) or self.recipe not in MESH_RECIPES:
+            raise ConfigError(f"geometry.recipe: expected one of {sorted(MESH_RECIPES)}, "
+                              f"got {self.recipe!r}")
+        if not isinstance(self.params, Mapping):
+            raise ConfigError(f"geometry.params: expected a mapping of recipe parameters, "
+                              f"got {type(self.params).__name__}")
+        object.__setattr__(self, "params", MappingProxyType(dict(self.params)))
+        object.__setattr__(self, "mesh_size", check_positive(self.mesh_size, "geometry.mesh_size"))
+        if isinstance(self.order, bool) or self.order not in (1, 2):
+            raise ConfigError(f"geometry.order: expected 1 or 2, got {self.order!r}")
+        if self.path is not None:
+            object.__setattr__(self, "path", Path(self.path))
+        if self.recipe in ("geo", "step") and self.path is None:
+            raise ConfigError(f"geometry.path: the {self.recipe!r} recipe needs a file path")
+
+
+@dataclass(frozen=True)
+class BeamGeometry:
+    """A slender link given as a polyline of straight members (beam axis).
+
+    Parameters
+    ----------
+    points : (k, 3) array_like
+        Polyline vertices in the link frame, m; k >= 2, consecutive vertices
+        distinct. Member i runs from vertex i to vertex i + 1.
+    element_size : float
+        Target beam element length, m.
+    vertex_names : tuple of str
+        Empty, or one unique name per vertex; each named vertex becomes a node
+        group of the mesh.
+
+    Examples
+    --------
+    >>> b = BeamGeometry([[0, 0, 0], [8, 0, 0], [16, 0, 0]], 1.0, ("pivot", "mid", "tip"))
+    >>> b.points.shape
+    (3, 3)
+    """
+
+    points: np.ndarray
+    element_size: float
+    vertex_names: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        pts = validate_array(self.points, (-1, 3), "geometry.points")
+        if pts.shape[0] < 2:
+            raise ConfigError(f"geometry.points: expected at least 2 vertices, got {pts.shape[0]}")
+        lengths = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+        scale = max(float(np.abs(pts).max()), float(lengths.max()))
+        short = np.flatnonzero(lengths <= 1e-12 * scale)
+        if short.size:
+            i = int(short[0])
+            raise ConfigError(f"geometry.points: member {i} has zero length "
+                              f"(vertices {i} and {i + 1} coincide)")
+        pts.setflags(write=False)
+        object.__setattr__(self, "points", pts)
+        object.__setattr__(self, "element_size",
+                           check_positive(self.element_size, "geometry.element_size"))
+        names = tuple(self.vertex_names)
+        if names and len(names) != pts.shape[0]:
+            raise ConfigError(f"geometry.vertex_names: expected {pts.shape[0]} names "
+                              f"(one per vertex) or none, got {len(names)}")
+        bad = [n for n in names if not isinstance(n, str) or not n]
+        if bad:
+            raise ConfigError(f"geometry.vertex_names: expected non-empty strings, got {bad!r}")
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ConfigError(f"geometry.vertex_names: duplicate names {dup}")
+        object.__setattr__(self, "vertex_names", names)
+
+    @property
+    def n_members(self) -> int:
+        """Number of straight members (polyline segments)."""
+        return int(self.points.shape[0] - 1)
+
+
+# --- recipe parameters (pure validation; the recipes build from these) ---
+
+@dataclass(frozen=True)
+class Bore:
+    """Through bore along z of a flat plate: centre (x, y) m, radius m."""
+
+    name: str
+    center: tuple[float, float]
+    radius: float
+
+
+@dataclass(frozen=True)
+class CrossBore:
+    """Bore through both walls of a box section, along ``axis`` ('y' or 'z').
+
+    ``x`` is the station along the tube, ``offset`` the shift along the other
+    transverse axis, m.
+    """
+
+    name: str
+    x: float
+    radius: float
+    axis: str
+    offset: float = 0.0
+
+
+@dataclass(frozen=True)
+class BentPlate:
+    """Validated parameters of the ``bent_plate`` recipe (see its docstring)."""
+
+    points: np.ndarray  # (k, 2) m
+    point_names: tuple[str, ...]
+    width: float
+    knee_width: float
+    thickness: float
+    rounded_ends: bool
+    bores: tuple[Bore, ...]
+
+
+def check_keys(params: Mapping[str, Any], where: str, required: tuple[str, ...] = (),
+               optional: tuple[str, ...] = (), path: str = "params") -> None:
+    """Raise ConfigError on a missing required or an unknown parameter at ``path``."""
+    allowed = set(required) | set(optional)
+    unknown = sorted(set(params) - allowed)
+    if unknown:
+        raise ConfigError(f"{where}: {path}.{unknown[0]}: unknown parameter; "
+                          f"expected {sorted(allowed) or 'no parameters'}")
+    missing = [k for k in required if k not in params]
+    if missing:
+        raise ConfigError(f"{where}: {path}.{missing[0]}: missing; required {list(required)}")
+
+
+def positive(params: Mapping[str, Any], key: str, where: str, path: str = "params") -> float:
+    """``params[key]`` as a finite float > 0, else ConfigError naming ``path.key``."""
+    try:
+        return check_positive(params[key], f"{where}: {path}.{key}")
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, ConfigError):
+            raise
+        raise ConfigError(f"{where}: {path}.{key}: expected a finite value > 0, "
+                          f"got {params[key]!r}") from None
+
+
+def _entries(value: Any, field_name: str, where: str) -> list[Mapping[str, Any]]:
+    if not isinstance(value, (list, tuple)) or not all(isinstance(v, Mapping) for v in value):
+        raise ConfigError(f"{where}: params.{field_name}: expected a list of mappings, "
+                          f"got {value!r}")
+    return list(value)
+
+
+def _name(entry: Mapping[str, Any], field_name: str, where: str) -> str:
+    name = entry.get("name", entry.get("at"))
+    if not isinstance(name, str) or not name.replace("_", "").replace("-", "").isalnum():
+        raise ConfigError(f"{where}: params.{field_name}.name: expected an identifier "
+                          f"(letters, digits, _ or -), got {name!r}")
+    return name
+
+
+def _unique(names: list[str], field_name: str, where: str) -> None:
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ConfigError(f"{where}: params.{field_name}: duplicate names {dup}")
+
+
+def parse_plate_bores(value: Any, where: str, points: Mapping[str, np.ndarray] | None = None
+                      ) -> tuple[Bore, ...]:
+    """Bores given as ``{name, center: [x, y], radius}`` or ``{name, at, radius}``."""
+    bores = []
+    for i, e in enumerate(_entries(value, "bores", where)):
+        fld = f"bores[{i}]"
+        check_keys(e, where, required=("radius",), optional=("name", "center", "at"),
+                   path=f"params.{fld}")
+        name = _name(e, fld, where)
+        radius = positive(e, "radius", where, f"params.{fld}")
+        if "at" in e and points is not None:
+            if e["at"] not in points:
+                raise ConfigError(f"{where}: params.{fld}.at: unknown point {e['at']!r}; "
+                                  f"points: {sorted(points)}")
+            c = points[e["at"]]
+        elif "center" in e:
+            c = validate_array(e["center"], (2,), f"{where}: params.{fld}.center")
+        else:
+            need = "'center' or 'at'" if points is not None else "'center'"
+            raise ConfigError(f"{where}: params.{fld}: expected {need}")
+        bores.append(Bore(name, (float(c[0]), float(c[1])), radius))
+    _unique([b.name for b in bores], "bores", where)
+    _check_disjoint(bores, where)
+    return tuple(bores)
+
+
+def _check_disjoint(bores, where: str) -> None:
+    for i, a in enumerate(bores):
+        for b in bores[i + 1:]:
+            if np.hypot(a.center[0] - b.center[0], a.center[1] - b.center[1]) \
+                    <= a.radius + b.radius:
+                raise ConfigError(f"{where}: params.bores: bores {a.name!r} and {b.name!r} "
+                                  "overlap; expected disjoint bores")
+
+
+def _sd_box(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
+    """Signed distance of a 2D point to an axis-aligned box (negative inside)."""
+    q = np.abs(p - (lo + hi) / 2) - (hi - lo) / 2
+    return float(np.linalg.norm(np.maximum(q, 0.0)) + min(max(q[0], q[1]), 0.0))
+
+
+def check_plate_bores(bores: tuple[Bore, ...], length: float, width: float, rc: float,
+                      where: str) -> None:
+    """Every bore strictly inside the (rounded) rectangle [0, length] x [-w/2, w/2]."""
+    lo, hi = np.array([rc, -width / 2 + rc]), np.array([length - rc, width / 2 - rc])
+    for b in bores:
+        if _sd_box(np.array(b.center), lo, hi) - rc + b.radius >= 0.0:
+            raise ConfigError(f"{where}: params.bores: bore {b.name!r} (center {b.center}, "
+                              f"radius {b.radius}) is not inside the plate outline")
+
+
+def parse_bent_plate(params: Mapping[str, Any], where: str) -> BentPlate:
+    """Validate the ``bent_plate`` parameters (see the recipe's docstring)."""
+    check_keys(params, where, required=("points", "width", "thickness"),
+               optional=("point_names", "knee_width", "rounded_ends", "bores"))
+    pts = validate_array(params["points"], (-1, 2), f"{where}: params.points")
+    if pts.shape[0] < 3:
+        raise ConfigError(f"{where}: params.points: expected at least 3 points "
+                          f"(pivot, knee, tip), got {pts.shape[0]}")
+    width, t = positive(params, "width", where), positive(params, "thickness", where)
+    if np.any(np.linalg.norm(np.diff(pts, axis=0), axis=1) <= width / 2):
+        raise ConfigError(f"{where}: params.points: expected members longer than width/2")
+    names = tuple(params.get("point_names") or (f"p{i}" for i in range(len(pts))))
+    if len(names) != len(pts):
+        raise ConfigError(f"{where}: params.point_names: expected {len(pts)} names, "
+                          f"got {len(names)}")
+    _unique(list(names), "point_names", where)
+    knee = positive(params, "knee_width", where) if "knee_width" in params else width
+    if knee < width:
+        raise ConfigError(f"{where}: params.knee_width: expected >= width ({width}), got {knee}")
+    arm = BentPlate(pts, names, width, knee, t, bool(params.get("rounded_ends", True)),
+                    parse_plate_bores(params.get("bores", []) or [], where,
+                                      dict(zip(names, pts))))
+    for b in arm.bores:
+        if not _bore_in_arm(arm, np.array(b.center), b.radius):
+            raise ConfigError(f"{where}: params.bores: bore {b.name!r} (center {b.center}, "
+                              f"radius {b.radius}) is not inside the plate outline")
+    return arm
+
+
+def _bore_in_arm(arm: BentPlate, c: np.ndarray, r: float) -> bool:
+    """Is the disc (c, r) inside one piece (strip or end/knee disc) of the outline?"""
+    k = len(arm.points)
+    for i, p in enumerate(arm.points):
+        end = i in (0, k - 1)
+        radius = arm.width / 2 if end else arm.knee_width / 2
+        if (not end or arm.rounded_ends) and np.linalg.norm(c - p) + r < radius:
+            return True
+    for p, q in zip(arm.points[:-1], arm.points[1:]):
+        d = (q - p) / np.linalg.norm(q - p)
+        local = np.array([(c - p) @ d, d[0] * (c - p)[1] - d[1] * (c - p)[0]])
+        lo, hi = np.array([0.0, -arm.width / 2]), np.array([np.linalg.norm(q - p), arm.width / 2])
+        if _sd_box(local, lo, hi) + r < 0.0:
+            return True
+    return False
+
+
+def parse_box_bores(value: Any, L: float, b: float, h: float, wall: float, tp: float,
+                    where: str) -> tuple[CrossBore, ...]:
+    """Cross bores of ``box_section``: each strictly inside the flat part of its walls."""
+    bores = []
+    for i, e in enumerate(_entries(value, "cross_bores", where)):
+        fld = f"cross_bores[{i}]"
+        check_keys(e, where, required=("name", "x", "radius", "axis"), optional=("offset",),
+                   path=f"params.{fld}")
+        r = positive(e, "radius", where, f"params.{fld}")
+        if e["axis"] not in ("y", "z"):
+            raise ConfigError(f"{where}: params.{fld}.axis: expected 'y' or 'z', "
+                              f"got {e['axis']!r}")
+        x = float(validate_array(e["x"], (), f"{where}: params.{fld}.x"))
+        off = float(validate_array(e.get("offset", 0.0), (), f"{where}: params.{fld}.offset"))
+        half = (h if e["axis"] == "y" else b) / 2 - wall  # flat part of the pierced wall
+        if not (x - r > tp and x + r < L - tp and abs(off) + r < half):
+            raise ConfigError(f"{where}: params.{fld}: bore (x={x}, offset={off}, radius={r}) "
+                              "must lie inside the flat part of the walls")
+        bores.append(CrossBore(_name(e, fld, where), x, r, e["axis"], off))
+    _unique([c.name for c in bores], "cross_bores", where)
+    for i, a in enumerate(bores):
+        for c in bores[i + 1:]:
+            if a.axis == c.axis and np.hypot(a.x - c.x, a.offset - c.offset) <= a.radius + c.radius:
+                raise ConfigError(f"{where}: params.cross_bores: bores {a.name!r} and "
+                                  f"{c.name!r} overlap; expected disjoint bores")
+    return tuple(bores)
