@@ -54,7 +54,11 @@ def clamped_modes(model, k: int):
     """
     fixed = model.node_dofs[np.flatnonzero(model.nodes[:, 0] < 1e-12)].ravel()
     free = np.setdiff1d(np.arange(model.n_dof), fixed)
-    w2, V = sla.eigsh(model.stiffness[free][:, free], k, model.mass[free][:, free], sigma=0.0)
+    K, M = model.stiffness[free][:, free], model.mass[free][:, free]
+    # Shift-invert at 0 with a symmetric fill-reducing ordering (much less fill than COLAMD).
+    lu = sla.splu(K.tocsc(), permc_spec="MMD_AT_PLUS_A")
+    OPinv = sla.LinearOperator(K.shape, matvec=lu.solve, dtype=float)
+    w2, V = sla.eigsh(K, k, M, sigma=0.0, OPinv=OPinv)
     U = np.zeros((model.n_dof, k))
     U[free] = V
     Ms = model.extras["scalar_mass"]
