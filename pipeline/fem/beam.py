@@ -270,8 +270,10 @@ def _sections_per_element(sections, k: int, where: str) -> tuple[BeamSection, ..
     if len(sections) != k:
         raise ConfigError(f"{where}: sections: expected 1 or {k} (one per line element), "
                           f"got {len(sections)}")
-    distinct = {id(s): i for i, s in enumerate(sections)}
-    for i in distinct.values():
+    first_index: dict[int, int] = {}  # check each distinct object once, name its first use
+    for i, s in enumerate(sections):
+        first_index.setdefault(id(s), i)
+    for i in first_index.values():
         if not isinstance(sections[i], BeamSection):
             raise ConfigError(f"{where}: sections[{i}]: expected a BeamSection, "
                               f"got {type(sections[i]).__name__}")
