@@ -1,0 +1,260 @@
+"""Constraint rank, redundant rows, DOF and the choice of independent coordinates.
+
+All decisions are taken on a dimensionless Jacobian: position rows divided
+by the mechanism's length scale, then every column divided by its norm (so
+radians, metres and modal amplitudes compete fairly).
+
+- Rank: singular values above ``RANK_RTOL`` times the largest (SVD).
+- Independent constraint rows: QR with column pivoting of J^T; the rows left
+  out are *redundant* (named, e.g. "L1 (cut 'D'): position z" for a planar
+  loop built in 3D).
+- Dependent coordinates: prescribed coordinates (drivers, every modal
+  coordinate) are independent by definition; among the others, QR with column
+  pivoting of the selected rows picks the best-conditioned square dependent
+  block; the rest are *free* independent coordinates (remaining DOF).
+- Passive (idle) motions: directions of the remaining null space that move
+  one loop link and no other link, e.g. the spin of an S-S coupler about its
+  own axis in an RSSR linkage.
+
+Examples
+--------
+>>> import numpy as np
+>>> J = np.array([[1.0, 1.0, 0.0], [0.0, 0.0, 0.0], [0.0, 1.0, 1.0]])
+>>> numerical_rank(J)
+2
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+
+from pipeline.kinematics.closure import closure, row_weights
+from pipeline.kinematics.failures import SingularConfigurationError
+from pipeline.kinematics.mechanism import Mechanism
+
+__all__ = ["RANK_RTOL", "DofReport", "Partition", "PassiveMotion", "dof_report",
+           "normalised_jacobian", "numerical_rank", "select_partition"]
+
+#: Relative singular-value threshold of the rank decisions.
+RANK_RTOL = 1e-8
+
+
+@dataclass(frozen=True)
+class Partition:
+    """Split of the coordinates for position, velocity and acceleration analysis.
+
+    Attributes
+    ----------
+    rows : (r,) independent closure rows (r = rank).
+    dependent : (r,) coordinate indices solved from the closure equations.
+    prescribed : driven and modal coordinate indices.
+    free : remaining independent coordinate indices (held by the caller).
+    rcond : smallest / largest singular value of the normalised dependent block
+        when it was selected.
+    """
+
+    rows: np.ndarray
+    dependent: np.ndarray
+    prescribed: np.ndarray
+    free: np.ndarray
+    rcond: float
+
+    @property
+    def independent(self) -> np.ndarray:
+        return np.concatenate([self.prescribed, self.free]).astype(int)
+
+
+@dataclass(frozen=True)
+class PassiveMotion:
+    """An idle motion: link ``link`` moves alone (rotation axis through
+    ``point`` along ``direction``, ground axes, m) with these coordinates."""
+
+    link: str
+    coordinates: tuple[str, ...]
+    point: np.ndarray
+    direction: np.ndarray
+
+
+@dataclass(frozen=True)
+class DofReport:
+    """Mobility at one configuration.
+
+    ``dof`` = n - rank counts every coordinate (joint and modal);
+    ``free`` are the independent coordinates left once drivers and modal
+    coordinates are prescribed; ``passive`` the idle motions among them.
+    """
+
+    n_coordinates: int
+    rank: int
+    dof: int
+    redundant: tuple[str, ...]
+    prescribed: tuple[str, ...]
+    dependent: tuple[str, ...]
+    free: tuple[str, ...]
+    passive: tuple[PassiveMotion, ...]
+
+    @property
+    def effective_dof(self) -> int:
+        """DOF without the passive motions."""
+        return self.dof - len(self.passive)
+
+    def summary(self) -> str:
+        lines = [f"coordinates {self.n_coordinates}, independent constraints {self.rank}, "
+                 f"DOF {self.dof} ({len(self.passive)} passive)",
+                 f"free after drivers/modes: {list(self.free)}"]
+        if self.redundant:
+            lines.append(f"redundant constraints: {list(self.redundant)}")
+        for p in self.passive:
+            lines.append(f"passive: link '{p.link}' spins about axis {np.round(p.direction, 6)} "
+                         f"through {np.round(p.point, 6)} ({', '.join(p.coordinates)})")
+        return "\n".join(lines)
+
+
+def normalised_jacobian(mech: Mechanism, J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Row-weighted, column-normalised J and the column norms c (J_n = W J / c)."""
+    Jw = row_weights(mech)[:, None] * J
+    c = np.linalg.norm(Jw, axis=0)
+    c[c == 0.0] = 1.0
+    return Jw / c, c
+
+
+def numerical_rank(J: np.ndarray, rtol: float = RANK_RTOL) -> int:
+    """Number of singular values of J above rtol times the largest."""
+    if J.size == 0:
+        return 0
+    s = np.linalg.svd(J, compute_uv=False)
+    return int(np.sum(s > rtol * s[0])) if s[0] > 0 else 0
+
+
+def _independent_rows(Jn: np.ndarray, rank: int) -> np.ndarray:
+    if rank == 0:
+        return np.zeros(0, dtype=int)
+    piv = sla.qr(Jn.T, mode="r", pivoting=True)[1]
+    return np.sort(piv[:rank])
+
+
+def _null_vectors(B: np.ndarray, rtol: float = RANK_RTOL, atol: float = 0.0) -> np.ndarray:
+    """(cols, k) orthonormal basis of the numerical null space of B.
+
+    Singular values at or below max(rtol * s_max, atol) count as zero.
+    """
+    if B.shape[0] == 0:
+        return np.eye(B.shape[1])
+    _, s, Vt = np.linalg.svd(B)
+    r = int(np.sum(s > max(rtol * s[0], atol))) if s.size else 0
+    return Vt[r:].T
+
+
+def singular_joints(mech: Mechanism, B: np.ndarray, cand: np.ndarray) -> tuple[str, ...]:
+    """Joints whose variables move along the lost directions of the block B (rows x cand)."""
+    _, s, Vt = np.linalg.svd(B)
+    lost = Vt[np.sum(s > RANK_RTOL * s[0]) if s.size and s[0] > 0 else 0:]
+    if lost.size == 0:  # nearly singular: take the weakest direction
+        lost = Vt[-1:]
+    weight = np.abs(lost).max(axis=0)
+    names = []
+    for i in cand[weight > 0.1 * weight.max()]:
+        j = mech.joint_of(int(i)) or mech.coordinates[i]
+        if j not in names:
+            names.append(j)
+    return tuple(names)
+
+
+def select_partition(mech: Mechanism, J: np.ndarray, prescribed, *, t: float | None = None,
+                     drivers: dict[str, float] | None = None, q: np.ndarray | None = None,
+                     rcond_min: float = 1e-10) -> Partition:
+    """Choose independent rows and the best-conditioned dependent coordinates.
+
+    Parameters
+    ----------
+    J : (6 k, n) closure Jacobian at the configuration.
+    prescribed : indices of driven and modal coordinates.
+    t, drivers, q : context reported if the configuration is singular.
+
+    Raises
+    ------
+    SingularConfigurationError
+        The non-prescribed columns cannot span the constraints (rank lost).
+    """
+    prescribed = np.unique(np.asarray(prescribed, dtype=int))
+    Jn, _ = normalised_jacobian(mech, J)
+    rank = numerical_rank(Jn)
+    rows = _independent_rows(Jn, rank)
+    cand = np.setdiff1d(np.arange(mech.n), prescribed)
+    B = Jn[rows][:, cand]
+    if rank == 0:
+        return Partition(rows, np.zeros(0, dtype=int), prescribed, cand, 1.0)
+    piv = sla.qr(B, mode="r", pivoting=True)[1] if cand.size else np.zeros(0, dtype=int)
+    dep = np.sort(cand[piv[:rank]]) if cand.size >= rank else cand
+    s = np.linalg.svd(Jn[rows][:, dep], compute_uv=False) if dep.size else np.zeros(1)
+    rc = float(s[-1] / s[0]) if dep.size == rank and s[0] > 0 else 0.0
+    if rc < rcond_min:
+        joints = singular_joints(mech, B, cand) if cand.size else ()
+        where = "" if t is None else f" at t = {t:.6g} s"
+        drv = "" if not drivers else " with " + ", ".join(f"{k} = {v:.6g}"
+                                                          for k, v in drivers.items())
+        raise SingularConfigurationError(
+            f"singular configuration{where}{drv}: the closure Jacobian of the non-prescribed "
+            f"coordinates has lost rank (rcond {rc:.2e}); joints losing rank: {list(joints)}",
+            joints, q if q is not None else np.full(mech.n, np.nan), t, drivers, rc)
+    return Partition(rows, dep, prescribed, np.setdiff1d(cand, dep), rc)
+
+
+def _passive(mech: Mechanism, tree, Nq: np.ndarray) -> tuple[PassiveMotion, ...]:
+    """Idle motions among the motions Nq (n, d) allowed by closure and drivers."""
+    if Nq.shape[1] == 0 or not mech.topology.loops:
+        return ()
+    ground = mech.link_index(mech.ground)
+    in_loops = sorted({l for lp in mech.topology.loops for l in lp.links} - {ground})
+    moving = {l: np.einsum("nij,nd->ijd", tree.dA[l, :, :3, :], Nq).reshape(12, -1)
+              for l in range(len(mech.links)) if l != ground}
+    scale = max(np.abs(np.vstack(list(moving.values()))).max(), 1e-300)
+    out = []
+    for l in in_loops:
+        others = np.vstack([M for k, M in moving.items() if k != l] or [np.zeros((0, Nq.shape[1]))])
+        Z = _null_vectors(others / scale, atol=RANK_RTOL)
+        for z in Z.T:
+            qd = Nq @ z
+            W = np.einsum("nij,n->ij", tree.dA[l], qd)
+            if np.abs(W).max() < 1e-6 * scale:
+                continue
+            A = tree.A[l]
+            Om = W[:3, :3] @ A[:3, :3].T
+            w = np.array([Om[2, 1], Om[0, 2], Om[1, 0]])
+            v = W[:3, 3] - Om @ A[:3, 3]
+            d = w / np.linalg.norm(w)
+            point = np.cross(w, v) / (w @ w)
+            coords = tuple(mech.coordinates[i] for i in np.flatnonzero(np.abs(qd) > 1e-6 *
+                                                                          np.abs(qd).max()))
+            out.append(PassiveMotion(mech.links[l].name, coords, point, d))
+    return tuple(out)
+
+
+def dof_report(mech: Mechanism, q: np.ndarray, driven=()) -> DofReport:
+    """DOF, redundant constraints, free coordinates and passive motions at q.
+
+    Parameters
+    ----------
+    q : (n,) an assembled configuration (closure satisfied).
+    driven : names of driven coordinates (modal coordinates are always prescribed).
+    """
+    q = np.asarray(q, dtype=float)
+    c = closure(mech, q)
+    pres = np.concatenate([mech.indices(driven), mech.modal_coordinates]).astype(int)
+    part = select_partition(mech, c.J, pres, q=q)
+    Jn, col = normalised_jacobian(mech, c.J)
+    names = mech.row_names()
+    redundant = tuple(names[i] for i in np.setdiff1d(np.arange(len(names)), part.rows))
+    cand = np.setdiff1d(np.arange(mech.n), part.prescribed)
+    Nq = np.zeros((mech.n, 0))
+    if cand.size:
+        Nc = _null_vectors(Jn[part.rows][:, cand]) if part.rows.size else np.eye(cand.size)
+        Nq = np.zeros((mech.n, Nc.shape[1]))
+        Nq[cand] = Nc / col[cand, None]
+    cn = mech.coordinates
+    return DofReport(mech.n, len(part.rows), mech.n - len(part.rows), redundant,
+                     tuple(cn[i] for i in part.prescribed), tuple(cn[i] for i in part.dependent),
+                     tuple(cn[i] for i in part.free), _passive(mech, c.tree, Nq))

@@ -1,0 +1,118 @@
+"""Tree poses, closure Jacobian and gamma vs central finite differences on a
+random spatial mechanism with every joint type, flexible links, joints crossed
+child-to-parent and three loops."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipeline.kinematics import (Joint, build_mechanism, closure, closure_residual,
+                                 evaluate_tree, flexible_link, rigid_link)
+from pipeline.kinematics.poses import step_value
+from pipeline.kinematics.rotations import exp_so3, homogeneous
+
+H = 1e-6
+
+
+def _pose(rng):
+    return homogeneous(exp_so3(rng.normal(size=3)), rng.normal(size=3))
+
+
+def _flex(rng, m, name, frames):
+    return flexible_link(name, {f: (_pose(rng), 0.3 * rng.normal(size=(m, 3)),
+                                    0.3 * rng.normal(size=(m, 3))) for f in frames})
+
+
+@pytest.fixture(scope="module")
+def mech():
+    rng = np.random.default_rng(11)
+    links = [
+        rigid_link("ground", {f: _pose(rng) for f in ("g1", "g2", "g3")}),
+        rigid_link("L1", {"a": _pose(rng), "c": _pose(rng)}),
+        _flex(rng, 2, "L2", ("f1", "f2")),
+        rigid_link("L3", {"a": _pose(rng), "b": _pose(rng)}),
+        _flex(rng, 3, "L4", ("f1", "f2")),
+        rigid_link("L5", {"a": _pose(rng)}),
+    ]
+    joints = [
+        Joint("j1", "free", "ground", "g1", "L1", "body"),
+        Joint("j2", "universal", "L1", "a", "L2", "body"),
+        Joint("j3", "spherical", "L2", "f1", "L3", "a"),
+        Joint("j4", "planar", "L3", "body", "ground", "g2"),
+        Joint("j5", "cylindrical", "ground", "g3", "L4", "body"),
+        Joint("j6", "revolute", "L4", "f1", "L3", "b"),
+        Joint("j7", "prismatic", "L2", "f2", "L4", "f2"),
+        Joint("j8", "fixed", "L5", "a", "L1", "c"),
+    ]
+    return build_mechanism(links, joints)
+
+
+def _rel(a, b):
+    return np.abs(a - b).max() / np.abs(b).max()
+
+
+def _state(mech, seed):
+    rng = np.random.default_rng(seed)
+    return rng.uniform(-1, 1, mech.n), rng.normal(size=mech.n)
+
+
+def test_topology_of_the_test_mechanism(mech):
+    topo = mech.topology
+    assert len(topo.loops) == 3 == len(mech.joints) - (len(mech.links) - 1)
+    assert any(not e.forward for e in topo.edges)  # some joint crossed child -> parent
+    # both of j7's frames deform with modes, so it can only be a cut joint
+    assert "j7" in [mech.joints[k].name for k in topo.cut_joints]
+    assert len(mech.modal_coordinates) == 5
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_link_pose_derivatives_equal_fd(mech, seed):
+    q, qd = _state(mech, seed)
+    st = evaluate_tree(mech, q, qd)
+    for i in range(mech.n):
+        e = np.zeros(mech.n)
+        e[i] = H
+        fd = (evaluate_tree(mech, q + e, derivatives=False).A
+              - evaluate_tree(mech, q - e, derivatives=False).A) / (2 * H)
+        assert np.abs(st.dA[:, i] - fd).max() <= 1e-7 * max(1.0, np.abs(fd).max())
+    assert np.allclose(st.Ad, np.einsum("lnij,n->lij", st.dA, qd), atol=1e-13)
+    fd2 = (evaluate_tree(mech, q + H * qd, qd).Ad - evaluate_tree(mech, q - H * qd, qd).Ad) / (2 * H)
+    assert _rel(st.Add, fd2) < 1e-7
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_closure_jacobian_equals_fd(mech, seed):
+    q, _ = _state(mech, seed)
+    c = closure(mech, q)
+    assert np.allclose(c.r, closure_residual(mech, q), atol=1e-14)
+    fd = np.column_stack([(closure_residual(mech, q + H * e) - closure_residual(mech, q - H * e))
+                          / (2 * H) for e in np.eye(mech.n)])
+    assert _rel(c.J, fd) < 1e-7
+    assert np.all(np.abs(c.J - fd) <= 1e-7 * np.abs(c.J).max())
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_gamma_equals_fd_of_jacobian_times_rates(mech, seed):
+    q, qd = _state(mech, seed)
+    g = closure(mech, q, qd).gamma
+    fd = -(closure(mech, q + H * qd).J @ qd - closure(mech, q - H * qd).J @ qd) / (2 * H)
+    assert _rel(g, fd) < 1e-7
+
+
+def test_marker_pose_derivatives_equal_fd(mech):
+    q, qd = _state(mech, 4)
+    st = mech.marker("L4", "f2")
+    tree = evaluate_tree(mech, q, qd)
+    v = step_value(st, tree.A, tree.dA, tree.Ad, tree.Add, q, qd)
+
+    def pose(x):
+        t = evaluate_tree(mech, x, derivatives=False)
+        return step_value(st, t.A, None, None, None, x, None, False).P
+
+    for i in range(mech.n):
+        e = np.zeros(mech.n)
+        e[i] = H
+        fd = (pose(q + e) - pose(q - e)) / (2 * H)
+        assert np.abs(v.dP[i] - fd).max() <= 1e-7 * max(1.0, np.abs(fd).max())
+    assert np.allclose(v.Pd, np.einsum("nij,n->ij", v.dP, qd), atol=1e-13)
