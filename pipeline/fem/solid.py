@@ -107,54 +107,60 @@ def _linear_topology(points: np.ndarray, tets: np.ndarray, where: str) -> P2Topo
 
 def _quadratic_topology(points: np.ndarray, tets: np.ndarray, where: str) -> P2Topology:
     from skfem import MeshTet1, MeshTet2
+    from skfem.refdom import RefTet
 
     if tets.ndim != 2 or tets.shape[1] != 10:
         raise MeshError(f"{where}: mesh.cells['tetra10']: expected shape (n, 10), got {tets.shape}")
     _check_all_used(tets, points.shape[0], where)
-    order = _midside_order(points, tets, where)
     vertices, t = np.unique(tets[:, :4], return_inverse=True)
-    t = t.reshape(-1, 4)
+    t = t.reshape(-1, 4).T
     nv = vertices.size
-    m1 = MeshTet1(points[vertices].T.copy(), t.T.copy())
-    edge_key = m1.edges[0].astype(np.int64) * nv + m1.edges[1]
-    ordering = np.argsort(edge_key)
-    pairs = np.sort(t[:, np.array(order)], axis=2)  # (n, 6, 2)
-    slot = ordering[np.searchsorted(edge_key, pairs[..., 0] * nv + pairs[..., 1],
-                                    sorter=ordering)]
-    mid_of_edge = np.full(edge_key.size, -1, np.int64)
-    mid_of_edge[slot.ravel()] = tets[:, 4:].ravel()
+    m1 = MeshTet1(points[vertices].T.copy(), t.copy())
+    if not (np.array_equal(m1.t, t) and np.array_equal(RefTet.edges, EDGES)):
+        raise MeshError(f"{where}: skfem reordered the tetrahedra; cannot map midside nodes")
+    # t2e[k, e] is the edge between local vertices EDGES[k] of cell e.
+    mid_of_edge = _midside_nodes(points, tets, m1.t2e, m1.edges.shape[1], where)
     node_of_skfem = np.concatenate([vertices, mid_of_edge])
-    if node_of_skfem.size != points.shape[0] or np.unique(node_of_skfem).size != points.shape[0]:
+    if np.unique(node_of_skfem).size != points.shape[0]:
         raise MeshError(f"{where}: mesh.cells['tetra10']: expected one point per vertex and "
                         f"per edge, got {points.shape[0]} points for {nv} vertices and "
-                        f"{edge_key.size} edges")
+                        f"{mid_of_edge.size} edges")
     coords = points[node_of_skfem]
-    m2 = MeshTet2(coords.T.copy(), m1.t.copy())
-    if not np.array_equal(m2.edges, m1.edges):
-        raise MeshError(f"{where}: skfem renumbered the edges of the quadratic mesh")
-    conn = np.vstack([m2.t, nv + m2.t2e]).T
+    # Same connectivity as m1, so skfem numbers edges and DOFs identically.
+    m2 = MeshTet2(coords.T.copy(), m1.t)
+    conn = np.vstack([m1.t, nv + m1.t2e]).T
     return P2Topology(m2, node_of_skfem, conn, coords, _straight(coords[conn]))
 
 
-def _midside_order(points: np.ndarray, tets: np.ndarray, where: str) -> tuple:
-    """The midside convention (meshio or gmsh) consistent with ``tets``."""
-    best, best_dev = None, np.inf
-    for name, order in MIDSIDE_ORDERS.items():
-        pairs = np.sort(tets[:, np.array(order)], axis=2).reshape(-1, 2)
-        mids = tets[:, 4:].ravel()
-        keys = pairs[:, 0] * points.shape[0] + pairs[:, 1]
-        n_links = np.unique(np.stack([keys, mids], axis=1), axis=0).shape[0]
-        if not (n_links == np.unique(keys).size == np.unique(mids).size):
-            continue
-        chord = points[pairs[:, 1]] - points[pairs[:, 0]]
-        off = points[mids] - points[pairs].mean(axis=1)
-        dev = float(np.max(np.linalg.norm(off, axis=1) / np.linalg.norm(chord, axis=1)))
-        if dev < best_dev:
-            best, best_dev = order, dev
-    if best is None:
+def _midside_nodes(points: np.ndarray, tets: np.ndarray, t2e: np.ndarray, n_edges: int,
+                   where: str) -> np.ndarray:
+    """Point id of each skfem edge's midside node, (n_edges,).
+
+    Tries the midside conventions of :data:`MIDSIDE_ORDERS`: the right one
+    gives every edge the same node from all cells around it; if several do,
+    the one whose nodes lie closest to their chords' midpoints wins.
+    """
+    found = []
+    for order in MIDSIDE_ORDERS.values():
+        slots = t2e[[EDGES.index(pair) for pair in order]].T  # (n, 6) edge id per column
+        mid_of_edge = np.full(n_edges, -1, np.int64)
+        mid_of_edge[slots] = tets[:, 4:]
+        if np.all(mid_of_edge >= 0) and np.array_equal(mid_of_edge[slots], tets[:, 4:]):
+            found.append((order, mid_of_edge))
+    if not found:
         raise MeshError(f"{where}: mesh.cells['tetra10']: midside nodes are not shared "
                         "consistently by neighbouring elements (unknown node order)")
-    return best
+    if len(found) > 1:  # e.g. a single cell: geometry decides
+        found.sort(key=lambda f: _chord_offsets(points, tets, f[0]))
+    return found[0][1]
+
+
+def _chord_offsets(points: np.ndarray, tets: np.ndarray, order) -> float:
+    """Largest distance of a midside node from its chord midpoint / chord length."""
+    pairs = tets[:, np.array(order)]  # (n, 6, 2)
+    chord = points[pairs[..., 1]] - points[pairs[..., 0]]
+    off = points[tets[:, 4:]] - points[pairs].mean(axis=2)
+    return float(np.max(np.linalg.norm(off, axis=2) / np.linalg.norm(chord, axis=2)))
 
 
 def _straight(X: np.ndarray) -> np.ndarray:

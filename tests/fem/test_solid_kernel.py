@@ -195,3 +195,38 @@ def test_quadratic_mesh_boundary_nodes_follow_the_point_order():
     on_face = np.any((np.abs(x) < 1e-12) | (np.abs(x - 1) < 1e-12), axis=1)
     np.testing.assert_array_equal(model.extras["boundary_nodes"], np.flatnonzero(on_face))
     assert p2_topology(mesh, "cube").straight.all()
+
+
+@pytest.mark.parametrize("order", ["meshio", "gmsh"])
+def test_single_cell_midside_order_decided_by_geometry(order):
+    from skfem import MeshTet, MeshTet2
+
+    mesh, _ = as_tetra10(MeshTet2.from_mesh(MeshTet.init_refdom()), order)
+    model = assemble_solid(mesh, Material(1.0, 0.3, 1.0), "one")
+    assert p2_topology(mesh, "one").straight.all()
+    assert model.extras["scalar_mass"].sum() == pytest.approx(1.0 / 6.0, rel=1e-14)
+
+
+@pytest.mark.gmsh
+def test_gmsh_curved_plate_matches_cad_and_skfem():
+    """A gmsh tetra10 plate with bores: curved cells, volume and centroid vs the OCC solid."""
+    from pipeline.meshing import SolidGeometry, build_mesh
+
+    params = {"length": 0.2, "width": 0.05, "thickness": 0.01,
+              "bores": [{"name": "a", "center": [0.03, 0.0], "radius": 0.01},
+                        {"name": "b", "center": [0.17, 0.0], "radius": 0.008}]}
+    mesh = build_mesh(SolidGeometry("plate_with_bores", params, mesh_size=0.006), "plate")
+    model = assemble_solid(mesh, STEEL, "plate")
+    topo = p2_topology(mesh, "plate")
+    assert np.count_nonzero(~topo.straight) > 0
+    np.testing.assert_array_equal(model.nodes, mesh.points)
+    Ms = model.extras["scalar_mass"] / STEEL.rho
+    vol = Ms.sum()
+    centroid = (model.nodes.T @ Ms.sum(axis=1).A1) / vol
+    print(f"\ngmsh plate: {model.n_dof} DOF, volume error {vol / mesh.cad['volume'] - 1:.2e}")
+    assert vol == pytest.approx(float(mesh.cad["volume"]), rel=1e-4)
+    np.testing.assert_allclose(centroid, mesh.cad["centroid"], atol=1e-6)
+    K0, M0, _, dofs0 = skfem_reference(topo.mesh, 4, 7)
+    np.testing.assert_array_equal(model.node_dofs, dofs0[np.argsort(topo.node_of_skfem)])
+    assert rel_diff(model.stiffness, K0) < 1e-12
+    assert rel_diff(model.mass, M0) < 1e-12
