@@ -107,3 +107,23 @@ def rssr_rocker(t, b, psi_near, a=1.0, c=2.0, pivot=(3.0, 0.0, 1.0)):
 def _rz(a):
     c, s = np.cos(a), np.sin(a)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def wrist_loop():
+    """Three revolutes about z, x', y'' (all through the origin) from ground to
+    link L3, and a spherical joint from ground to L3 at the origin: the
+    spherical follows R = rot_z(a) rot_x(b) rot_y(c) of the driven revolutes
+    (coordinates R1.theta = a, R2.theta = b, R3.theta = c; assembled at 0)."""
+    Fx, Fy = homogeneous(rot_y(np.pi / 2)), homogeneous(_rx(-np.pi / 2))
+    links = [rigid_link("ground"), rigid_link("L1", {"ax": Fx}),
+             rigid_link("L2", {"ax": Fx, "ay": Fy}), rigid_link("L3", {"ay": Fy})]
+    joints = [Joint("R1", "revolute", "ground", "body", "L1", "body"),
+              Joint("S", "spherical", "ground", "body", "L3", "body", (0.01, 0.02, -0.01)),
+              Joint("R2", "revolute", "L1", "ax", "L2", "ax"),
+              Joint("R3", "revolute", "L2", "ay", "L3", "ay")]
+    return build_mechanism(links, joints)
+
+
+def _rx(a):
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
