@@ -38,11 +38,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from pipeline.core.errors import ConfigError
+from pipeline.core.errors import ConfigError, KinematicsError
 from pipeline.kinematics.closure import ClosureValue, closure, closure_residual, row_weights
 from pipeline.kinematics.failures import ClosureError, SingularConfigurationError
 from pipeline.kinematics.mechanism import ROW_COMPONENTS, Mechanism
-from pipeline.kinematics.partition import Partition, select_partition
+from pipeline.kinematics.partition import (Partition, normalised_jacobian, numerical_rank,
+                                           select_partition)
 
 __all__ = ["Assembly", "assemble", "solve_acceleration", "solve_position", "solve_velocity"]
 
@@ -159,10 +160,16 @@ def solve_position(mech: Mechanism, q_guess: np.ndarray, part: Partition, *, tol
     if ok:
         return q, c, it
     q, nfev = _closest(mech, q, part, w, max_nfev)
-    q, c, it2, ok = _newton(mech, q, part, w, tol, max_iter)
+    q2, c, it2, ok = _newton(mech, q, part, w, tol, max_iter)
     if ok:
-        return q, c, it + nfev + it2
-    raise _closure_error(mech, q, closure_residual(mech, q))
+        return q2, c, it + nfev + it2
+    r = closure_residual(mech, q)
+    if _err(w, r) <= tol:  # closed by least squares; Newton's block is singular here
+        return q, closure(mech, q), it + nfev
+    if _err(w, r) <= 1e-6:  # closes, yet neither method converges: singular? (raises if so)
+        select_partition(mech, closure(mech, q).J, part.prescribed, q=q,
+                         expected_rank=len(part.rows))
+    raise _closure_error(mech, q, r)
 
 
 def solve_velocity(J: np.ndarray, part: Partition, qd: np.ndarray) -> np.ndarray:
@@ -183,6 +190,18 @@ def solve_acceleration(J: np.ndarray, gamma: np.ndarray, part: Partition,
     out[part.dependent] = np.linalg.solve(R[:, part.dependent],
                                           gamma[part.rows] - R[:, ind] @ out[ind])
     return out
+
+
+def _check_drivers(mech: Mechanism, J: np.ndarray, prescribed: np.ndarray, driven) -> None:
+    """Raise if the prescribed coordinates leave fewer unknowns than constraints."""
+    Jn = normalised_jacobian(mech, J)[0]
+    cand = np.setdiff1d(np.arange(mech.n), prescribed)
+    rank, rank_c = numerical_rank(Jn), numerical_rank(Jn[:, cand])
+    if rank_c < rank:
+        raise KinematicsError(
+            f"driven coordinates {list(driven)} over-constrain the mechanism: the other "
+            f"coordinates can satisfy only {rank_c} of its {rank} independent closure "
+            "constraints; drive fewer coordinates (see dof_report)")
 
 
 def assemble(mech: Mechanism, q_guess: np.ndarray | None = None, driven=(), *,
@@ -207,6 +226,7 @@ def assemble(mech: Mechanism, q_guess: np.ndarray | None = None, driven=(), *,
                           f"(finite: {bool(np.all(np.isfinite(q)))})")
     prescribed = np.concatenate([mech.indices(driven), mech.modal_coordinates]).astype(int)
     c0 = closure(mech, q)
+    _check_drivers(mech, c0.J, prescribed, driven)
     try:
         part = select_partition(mech, c0.J, prescribed, q=q)
     except SingularConfigurationError:  # a poor guess may be singular: start least squares

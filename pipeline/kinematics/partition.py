@@ -148,12 +148,13 @@ def _null_vectors(B: np.ndarray, rtol: float = RANK_RTOL, atol: float = 0.0) -> 
     return Vt[r:].T
 
 
-def singular_joints(mech: Mechanism, B: np.ndarray, cand: np.ndarray) -> tuple[str, ...]:
-    """Joints whose variables move along the lost directions of the block B (rows x cand)."""
+def singular_joints(mech: Mechanism, B: np.ndarray, cand: np.ndarray,
+                    expected_rank: int) -> tuple[str, ...]:
+    """Joints whose variables move along the directions in which the block B
+    (all closure rows x candidate coordinates) has lost rank below ``expected_rank``."""
     _, s, Vt = np.linalg.svd(B)
-    lost = Vt[np.sum(s > RANK_RTOL * s[0]) if s.size and s[0] > 0 else 0:]
-    if lost.size == 0:  # nearly singular: take the weakest direction
-        lost = Vt[-1:]
+    now = int(np.sum(s > RANK_RTOL * s[0])) if s.size and s[0] > 0 else 0
+    lost = Vt[min(now, expected_rank - 1):expected_rank]
     weight = np.abs(lost).max(axis=0)
     names = []
     for i in cand[weight > 0.1 * weight.max()]:
@@ -165,7 +166,7 @@ def singular_joints(mech: Mechanism, B: np.ndarray, cand: np.ndarray) -> tuple[s
 
 def select_partition(mech: Mechanism, J: np.ndarray, prescribed, *, t: float | None = None,
                      drivers: dict[str, float] | None = None, q: np.ndarray | None = None,
-                     rcond_min: float = 1e-10) -> Partition:
+                     expected_rank: int | None = None, rcond_min: float = RANK_RTOL) -> Partition:
     """Choose independent rows and the best-conditioned dependent coordinates.
 
     Parameters
@@ -173,11 +174,15 @@ def select_partition(mech: Mechanism, J: np.ndarray, prescribed, *, t: float | N
     J : (6 k, n) closure Jacobian at the configuration.
     prescribed : indices of driven and modal coordinates.
     t, drivers, q : context reported if the configuration is singular.
+    expected_rank : the number of independent constraints established at
+        assembly; fewer here is a singular configuration (e.g. a bifurcation).
+    rcond_min : smallest acceptable rcond of the normalised dependent block.
 
     Raises
     ------
     SingularConfigurationError
-        The non-prescribed columns cannot span the constraints (rank lost).
+        The non-prescribed columns cannot span the constraints (rank lost), or
+        the constraints themselves lost rank.
     """
     prescribed = np.unique(np.asarray(prescribed, dtype=int))
     Jn, _ = normalised_jacobian(mech, J)
@@ -185,20 +190,23 @@ def select_partition(mech: Mechanism, J: np.ndarray, prescribed, *, t: float | N
     rows = _independent_rows(Jn, rank)
     cand = np.setdiff1d(np.arange(mech.n), prescribed)
     B = Jn[rows][:, cand]
-    if rank == 0:
+    r_exp = rank if expected_rank is None else expected_rank
+    if rank == 0 and r_exp == 0:
         return Partition(rows, np.zeros(0, dtype=int), prescribed, cand, 1.0)
-    piv = sla.qr(B, mode="r", pivoting=True)[1] if cand.size else np.zeros(0, dtype=int)
+    piv = sla.qr(B, mode="r", pivoting=True)[1] if cand.size and rank else np.zeros(0, int)
     dep = np.sort(cand[piv[:rank]]) if cand.size >= rank else cand
     s = np.linalg.svd(Jn[rows][:, dep], compute_uv=False) if dep.size else np.zeros(1)
     rc = float(s[-1] / s[0]) if dep.size == rank and s[0] > 0 else 0.0
-    if rc < rcond_min:
-        joints = singular_joints(mech, B, cand) if cand.size else ()
+    if rc < rcond_min or rank < r_exp:
+        joints = singular_joints(mech, Jn[:, cand], cand, r_exp) if cand.size else ()
         where = "" if t is None else f" at t = {t:.6g} s"
         drv = "" if not drivers else " with " + ", ".join(f"{k} = {v:.6g}"
                                                           for k, v in drivers.items())
+        what = (f"the constraints lost rank ({rank} < {r_exp})" if rank < r_exp else
+                f"the closure Jacobian of the non-prescribed coordinates lost rank "
+                f"(rcond {rc:.2e})")
         raise SingularConfigurationError(
-            f"singular configuration{where}{drv}: the closure Jacobian of the non-prescribed "
-            f"coordinates has lost rank (rcond {rc:.2e}); joints losing rank: {list(joints)}",
+            f"singular configuration{where}{drv}: {what}; joints losing rank: {list(joints)}",
             joints, q if q is not None else np.full(mech.n, np.nan), t, drivers, rc)
     return Partition(rows, dep, prescribed, np.setdiff1d(cand, dep), rc)
 

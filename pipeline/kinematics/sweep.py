@@ -158,6 +158,7 @@ def sweep(mech: Mechanism, drivers: Mapping[str, object], t, q_guess: np.ndarray
     reselections, message, done = [], "ok", 0
     try:
         part = assemble(mech, q, names, tol=tol).partition
+        rank = len(part.rows)
         qd, qdd = np.zeros(n), np.zeros(n)
         for k in progress_bar(range(N), total=N, description="kinematic sweep"):
             tk = t[k]
@@ -172,7 +173,8 @@ def sweep(mech: Mechanism, drivers: Mapping[str, object], t, q_guess: np.ndarray
             Jn = normalised_jacobian(mech, c.J)[0][part.rows][:, part.dependent]
             s = np.linalg.svd(Jn, compute_uv=False) if Jn.size else np.ones(1)
             if s.size and s[-1] / s[0] < part.rcond / reselect_factor:
-                part = select_partition(mech, c.J, prescribed, t=tk, drivers=ctx, q=q)
+                part = select_partition(mech, c.J, prescribed, t=tk, drivers=ctx, q=q,
+                                        expected_rank=rank)
                 reselections.append(float(tk))
                 logger.info("re-selected dependent coordinates at t = %.6g s: %s", tk,
                             [mech.coordinates[i] for i in part.dependent])
