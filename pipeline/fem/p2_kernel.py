@@ -3,8 +3,8 @@
 Every element integral is written as one dense matrix product over a batch of
 elements, so numpy/BLAS does the work instead of a Python loop:
 
-* gradient integrals ``D[e, (a, b), (i, j)] = int dN_i/dx_a dN_j/dx_b dV``
-  are ``W[e, (a, b), (q, k, l)] @ G[(q, k, l), (i, j)]`` with
+* gradient integrals ``D[(a, b), e, (i, j)] = int dN_i/dx_a dN_j/dx_b dV``
+  are ``W[(a, b), e, (q, k, l)] @ G[(q, k, l), (i, j)]`` with
   ``W = w_q |det J_q| invJ_q[k, a] invJ_q[l, b]`` (geometry) and
   ``G = dN_i/dxi_k dN_j/dxi_l`` at the reference quadrature points. For
   affine elements J is constant, so the quadrature sum is precomputed once
@@ -28,8 +28,9 @@ import scipy.sparse as sp
 
 EDGES = ((0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3))
 _GRAD_L = np.array([[-1.0, -1.0, -1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
-# Elements per batch: bounds the (batch, 9, 9 q) geometry array to ~64 MB.
-_BATCH_DOUBLES = 8_000_000
+# Elements per batch: bounds the per-batch arrays (geometry factors and the
+# 900 gradient integrals per element) to ~128 MB.
+_BATCH_DOUBLES = 16_000_000
 
 
 def p2_shape(xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -125,17 +126,20 @@ def inverse_and_det(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def gradient_integrals(X: np.ndarray, rule: ReferenceRule, affine: bool) -> np.ndarray:
-    """D[e, (a, b), (i, j)] = int dN_i/dx_a dN_j/dx_b dV, shape (e, 9, 100), m."""
+    """D[(a, b), e, (i, j)] = int dN_i/dx_a dN_j/dx_b dV, shape (9, e, 100), m.
+
+    Component-major, so each of the 9 components is contiguous for the scatter.
+    """
     if affine:
         invJ, det = inverse_and_det(jacobians(X, None))
-        W = np.abs(det)[:, None, None, None, None] * np.einsum("eka,elb->eabkl", invJ, invJ)
+        W = np.einsum("e,eka,elb->abekl", np.abs(det), invJ, invJ, optimize=True)
         A = np.einsum("q,qcp->cp", rule.weights, rule.GG)  # exact: integrand of degree 2
-        return (W.reshape(-1, 9) @ A).reshape(-1, 9, 100)
+        return (W.reshape(-1, 9) @ A).reshape(9, -1, 100)
     invJ, det = inverse_and_det(jacobians(X, rule))
     dx = np.abs(det) * rule.weights  # (e, q)
-    W = np.einsum("eq,eqka,eqlb->eabqkl", dx, invJ, invJ, optimize=True)
+    W = np.einsum("eq,eqka,eqlb->abeqkl", dx, invJ, invJ, optimize=True)
     nq = rule.weights.size
-    return (W.reshape(-1, 9 * nq) @ rule.GG.reshape(9 * nq, 100)).reshape(-1, 9, 100)
+    return (W.reshape(-1, 9 * nq) @ rule.GG.reshape(9 * nq, 100)).reshape(9, -1, 100)
 
 
 def mass_integrals(X: np.ndarray, rule: ReferenceRule, affine: bool) -> np.ndarray:
@@ -218,7 +222,7 @@ def assemble_p2(X: np.ndarray, conn: np.ndarray, n_nodes: int, lam: float, mu: f
     """
     pattern = NodePattern.of(conn, n_nodes)
     straight = np.broadcast_to(np.asarray(straight, bool), (conn.shape[0],))
-    D = np.zeros((pattern.nnz, 9))
+    D = np.zeros((9, pattern.nnz))
     ms = np.zeros(pattern.nnz)
     for affine in (True, False):
         elements = np.flatnonzero(straight == affine)
@@ -226,27 +230,67 @@ def assemble_p2(X: np.ndarray, conn: np.ndarray, n_nodes: int, lam: float, mu: f
             continue
         k_rule = ReferenceRule.of_order(4 if affine else stiffness_order)
         m_rule = k_rule if affine else ReferenceRule.of_order(mass_order)
-        batch = max(1, _BATCH_DOUBLES // (81 * (1 if affine else k_rule.weights.size)))
+        batch = max(1, _BATCH_DOUBLES // (900 + 81 * (1 if affine else k_rule.weights.size)))
         for start in range(0, elements.size, batch):
             part = elements[start:start + batch]
             De = gradient_integrals(X[part], k_rule, affine)
             for ab in range(9):
-                D[:, ab] += pattern.scatter(De[:, ab, :], part)
+                D[ab] += pattern.scatter(De[ab], part)
             ms += pattern.scatter(mass_integrals(X[part], m_rule, affine), part)
     return _stiffness_from_gradients(D, lam, mu, pattern), _symmetric_csr(ms, pattern)
 
 
 def _stiffness_from_gradients(D: np.ndarray, lam: float, mu: float,
                               pattern: NodePattern) -> sp.csr_matrix:
-    """K blocks lam D + mu D^T + mu tr(D) 1 per node pair, as CSR (3n, 3n)."""
-    D = D.reshape(-1, 3, 3)
-    # Exact symmetry (the two mirrored sums differ only by rounding order).
-    D = 0.5 * (D + D[pattern.transpose].transpose(0, 2, 1))
-    trace = np.einsum("pcc->p", D)
-    blocks = lam * D + mu * D.transpose(0, 2, 1) + mu * trace[:, None, None] * np.eye(3)
+    """K blocks lam D + mu D^T + mu tr(D) 1 per node pair, as CSR (3n, 3n).
+
+    ``D`` is component-major (9, nnz), so every step is a contiguous 1-D pass.
+    """
+    T = pattern.transpose
+    # Exact symmetry: the mirrored entry (c, r) holds D^T of (r, c) up to the
+    # rounding order of the sums.
+    sym = [0.5 * (D[3 * a + b] + D[3 * b + a][T]) for a in range(3) for b in range(3)]
+    trace = sym[0] + sym[4] + sym[8]
+    blocks = np.empty((pattern.nnz, 3, 3))
+    for a in range(3):
+        for b in range(3):
+            blocks[:, a, b] = lam * sym[3 * a + b] + mu * sym[3 * b + a]
+        blocks[:, a, a] += mu * trace
     n = 3 * pattern.n_nodes
     return sp.bsr_matrix((blocks, pattern.indices, pattern.indptr), shape=(n, n)).tocsr()
 
 
 def _symmetric_csr(values: np.ndarray, pattern: NodePattern) -> sp.csr_matrix:
     return pattern.csr(0.5 * (values + values[pattern.transpose]))
+
+
+def vector_mass(Ms: sp.csr_matrix) -> sp.csr_matrix:
+    """kron(Ms, 1_3) without explicit zeros: DOF 3 n + a couples only to 3 m + a.
+
+    Parameters
+    ----------
+    Ms : (n, n) CSR
+        Scalar mass, kg.
+
+    Returns
+    -------
+    (3 n, 3 n) CSR
+
+    Examples
+    --------
+    >>> M = vector_mass(sp.csr_matrix(np.array([[2.0, 1.0], [1.0, 2.0]])))
+    >>> bool((M != sp.kron(np.array([[2.0, 1.0], [1.0, 2.0]]), np.eye(3))).nnz == 0), M.nnz
+    (True, 12)
+    """
+    Ms = sp.csr_matrix(Ms)
+    rowlen = np.diff(Ms.indptr)
+    lengths = np.repeat(rowlen, 3)  # row 3 r + a has the entries of row r
+    indptr = np.zeros(lengths.size + 1, np.int64)
+    np.cumsum(lengths, out=indptr[1:])
+    # Entry k of new row (r, a) is entry Ms.indptr[r] + k of row r.
+    shift = np.repeat(indptr[:-1] - np.repeat(Ms.indptr[:-1], 3), lengths)
+    source = np.arange(indptr[-1]) - shift
+    component = np.repeat(np.tile(np.arange(3), rowlen.size), lengths)
+    n = 3 * Ms.shape[0]
+    return sp.csr_matrix((Ms.data[source], 3 * Ms.indices[source] + component, indptr),
+                         shape=(n, n))

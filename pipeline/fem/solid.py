@@ -28,7 +28,7 @@ from pipeline.core.progress import stage
 from pipeline.fem.material import Material, check_material
 from pipeline.fem.model import FemModel
 from pipeline.fem.moments import MassMoments
-from pipeline.fem.p2_kernel import EDGES, assemble_p2
+from pipeline.fem.p2_kernel import EDGES, assemble_p2, vector_mass
 from pipeline.meshing.mesh_data import MeshData
 
 logger = logging.getLogger(__name__)
@@ -238,7 +238,7 @@ def assemble_solid(mesh: MeshData, material: Material, name: str) -> FemModel:
         K, Ms = assemble_p2(topo.coords[topo.conn], topo.conn, topo.coords.shape[0],
                             lam, mu, topo.straight)
         Ms = material.rho * Ms
-        M = sp.kron(Ms, sp.identity(3), format="csr")
+        M = vector_mass(Ms)
         sk_dofs = _skfem_node_dofs(topo)
         K, M = _to_skfem_numbering(K, sk_dofs), _to_skfem_numbering(M, sk_dofs)
     skfem_of_node = np.argsort(topo.node_of_skfem)
