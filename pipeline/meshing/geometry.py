@@ -89,7 +89,7 @@ class BeamGeometry:
         Target beam element length, m.
     vertex_names : tuple of str
         Empty, or one unique name per vertex; each named vertex becomes a node
-        group of the mesh.
+        group of the mesh (``member_<i>`` is reserved for the member groups).
 
     Examples
     --------
@@ -127,6 +127,10 @@ class BeamGeometry:
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise ConfigError(f"geometry.vertex_names: duplicate names {dup}")
+        reserved = [n for n in names if n.startswith("member_")]
+        if reserved:
+            raise ConfigError(f"geometry.vertex_names: {reserved[0]!r}: names 'member_<i>' are "
+                              "reserved for the member node groups")
         object.__setattr__(self, "vertex_names", names)
 
     @property

@@ -105,7 +105,8 @@ def gmsh_session(name: str) -> Iterator[Any]:
     """Yield the gmsh module, initialised with a fresh model; finalise on exit.
 
     If the caller already has gmsh initialised, only the model made here is
-    removed on exit. gmsh exceptions become :class:`MeshError` with gmsh's
+    removed on exit and the caller's current model restored (global gmsh
+    options set here stay changed). gmsh exceptions become :class:`MeshError` with gmsh's
     message and the link name.
     """
     try:
@@ -115,6 +116,7 @@ def gmsh_session(name: str) -> Iterator[Any]:
     owned = not gmsh.isInitialized()
     if owned:
         gmsh.initialize(readConfigFiles=False, interruptible=False)
+    previous = None if owned else gmsh.model.getCurrent()
     try:
         gmsh.option.setNumber("General.Terminal", int(logger.isEnabledFor(logging.DEBUG)))
         gmsh.model.add(f"{name}-{uuid.uuid4().hex[:8]}")
@@ -128,6 +130,7 @@ def gmsh_session(name: str) -> Iterator[Any]:
             gmsh.finalize()
         else:
             gmsh.model.remove()
+            gmsh.model.setCurrent(previous)
 
 
 def _build_solid(geometry: SolidGeometry, name: str, options: Mapping[str, float]) -> MeshData:
