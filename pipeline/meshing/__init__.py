@@ -22,15 +22,15 @@ from pipeline.meshing.selectors import (
 )
 
 __all__ = [
-    "MeshData",
-    "SolidGeometry",
-    "BeamGeometry",
     "MESH_RECIPES",
-    "build_mesh",
     "SELECTORS",
-    "PhysicalGroup",
-    "CylinderSurface",
-    "PlaneFace",
-    "NearestNode",
+    "BeamGeometry",
     "BoxRegion",
+    "CylinderSurface",
+    "MeshData",
+    "NearestNode",
+    "PhysicalGroup",
+    "PlaneFace",
+    "SolidGeometry",
+    "build_mesh",
 ]

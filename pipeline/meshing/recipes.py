@@ -15,14 +15,14 @@ interfaces use.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any
 
 import numpy as np
 
 from pipeline.core.errors import ConfigError, MeshError
 from pipeline.meshing.geometry import (
-    Bore,
     check_keys,
     check_plate_bores,
     parse_bent_plate,
@@ -75,7 +75,7 @@ def plate_with_bores(gmsh, params: Mapping[str, Any], path: Path | None, where: 
         plate = [e for e in occ.extrude([(2, rect)], 0, 0, t) if e[0] == 3]
     else:
         plate = [(3, occ.addBox(0.0, -width / 2, -t / 2, length, width, t))]
-    return _cut_z_bores(gmsh, plate, bores, t)
+    return _cut_z_bores(gmsh, plate, bores, t, where)
 
 
 def bent_plate(gmsh, params: Mapping[str, Any], path: Path | None, where: str) -> Groups:
@@ -124,7 +124,7 @@ def bent_plate(gmsh, params: Mapping[str, Any], path: Path | None, where: str) -
         pieces.append((2, occ.addDisk(float(p[0]), float(p[1]), z0, r, r)))
     outline, _ = occ.fuse(pieces[:1], pieces[1:])
     plate = [e for e in occ.extrude(outline, 0, 0, t) if e[0] == 3]
-    return _cut_z_bores(gmsh, plate, arm.bores, t)
+    return _cut_z_bores(gmsh, plate, arm.bores, t, where)
 
 
 def box_section(gmsh, params: Mapping[str, Any], path: Path | None, where: str) -> Groups:
@@ -175,7 +175,7 @@ def box_section(gmsh, params: Mapping[str, Any], path: Path | None, where: str) 
         lo = [bore.x - bore.radius, -b / 2, -h / 2]
         hi = [bore.x + bore.radius, b / 2, h / 2]
         lo[3 - k], hi[3 - k] = bore.offset - bore.radius, bore.offset + bore.radius
-        groups[f"bore_{bore.name}"] = _cylinder_faces(gmsh, lo, hi, bore.radius)
+        groups[f"bore_{bore.name}"] = _cylinder_faces(gmsh, lo, hi, bore.radius, where)
     return groups
 
 
@@ -220,7 +220,7 @@ MESH_RECIPES: dict[str, Recipe] = {
 
 # --- geometric identification of faces after the booleans (tags are renumbered) ---
 
-def _cut_z_bores(gmsh, plate: list[tuple[int, int]], bores: list[Bore], t: float) -> Groups:
+def _cut_z_bores(gmsh, plate: list[tuple[int, int]], bores, t: float, where: str) -> Groups:
     occ = gmsh.model.occ
     tools = [(3, occ.addCylinder(b.center[0], b.center[1], -t, 0, 0, 2 * t, b.radius))
              for b in bores]
@@ -229,7 +229,7 @@ def _cut_z_bores(gmsh, plate: list[tuple[int, int]], bores: list[Bore], t: float
     occ.synchronize()
     return {f"bore_{b.name}": _cylinder_faces(
         gmsh, [b.center[0] - b.radius, b.center[1] - b.radius, -t / 2],
-        [b.center[0] + b.radius, b.center[1] + b.radius, t / 2], b.radius) for b in bores}
+        [b.center[0] + b.radius, b.center[1] + b.radius, t / 2], b.radius, where) for b in bores}
 
 
 def _pad(gmsh, size: float) -> float:
@@ -245,14 +245,15 @@ def _plane_faces(gmsh, axis: int, value: float, size: float) -> list[tuple[int, 
     return list(gmsh.model.getEntitiesInBoundingBox(*lo, *hi, 2))
 
 
-def _cylinder_faces(gmsh, lo, hi, radius: float) -> list[tuple[int, int]]:
+def _cylinder_faces(gmsh, lo, hi, radius: float, where: str) -> list[tuple[int, int]]:
     """Cylindrical faces fully inside the box [lo, hi] (padded)."""
     eps = _pad(gmsh, radius)
     inside = gmsh.model.getEntitiesInBoundingBox(*(np.asarray(lo) - eps),
                                                  *(np.asarray(hi) + eps), 2)
     faces = [e for e in inside if gmsh.model.getType(*e) == "Cylinder"]
     if not faces:
-        raise MeshError(f"no cylindrical face of radius {radius} found in box {lo}..{hi}")
+        raise MeshError(f"{where}: no cylindrical bore face of radius {radius} found in the "
+                        f"box {lo}..{hi} after the boolean cut")
     return faces
 
 

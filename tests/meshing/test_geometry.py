@@ -26,12 +26,13 @@ def test_solid_geometry_normalises_and_freezes():
 
 
 @pytest.mark.parametrize("kwargs, match", [
-    (dict(recipe="cube", params={}, mesh_size=0.01), r"geometry.recipe: expected one of .*'bar'"),
-    (dict(recipe="bar", params={}, mesh_size=-1.0), r"geometry.mesh_size: expected a finite "
-                                                     r"value > 0, got -1.0"),
-    (dict(recipe="bar", params={}, mesh_size=0.01, order=3), r"geometry.order: expected 1 or 2"),
-    (dict(recipe="bar", params=[1], mesh_size=0.01), r"geometry.params: expected a mapping"),
-    (dict(recipe="step", params={}, mesh_size=0.01), r"geometry.path: the 'step' recipe needs"),
+    ({"recipe": "cube", "params": {}, "mesh_size": 0.01},
+     r"geometry.recipe: expected one of .*'bar'"),
+    ({"recipe": "bar", "params": {}, "mesh_size": -1.0},
+     r"geometry.mesh_size: expected a finite value > 0, got -1.0"),
+    ({"recipe": "bar", "params": {}, "mesh_size": 0.01, "order": 3}, r"geometry.order: expected 1 or 2"),
+    ({"recipe": "bar", "params": [1], "mesh_size": 0.01}, r"geometry.params: expected a mapping"),
+    ({"recipe": "step", "params": {}, "mesh_size": 0.01}, r"geometry.path: the 'step' recipe needs"),
 ])
 def test_solid_geometry_rejects_bad_fields(kwargs, match):
     with pytest.raises(ConfigError, match=match):
@@ -39,15 +40,15 @@ def test_solid_geometry_rejects_bad_fields(kwargs, match):
 
 
 @pytest.mark.parametrize("kwargs, match", [
-    (dict(points=[[0, 0, 0]], element_size=1.0), r"at least 2 vertices"),
-    (dict(points=[[0, 0, 0], [0, 0, 0]], element_size=1.0), r"member 0 has zero length"),
-    (dict(points=[[0, 0], [1, 0]], element_size=1.0), r"geometry.points: expected shape"),
-    (dict(points=[[0, 0, 0], [1, 0, 0]], element_size=0.0), r"geometry.element_size"),
-    (dict(points=[[0, 0, 0], [1, 0, 0]], element_size=1.0, vertex_names=("a",)),
+    ({"points": [[0, 0, 0]], "element_size": 1.0}, r"at least 2 vertices"),
+    ({"points": [[0, 0, 0], [0, 0, 0]], "element_size": 1.0}, r"member 0 has zero length"),
+    ({"points": [[0, 0], [1, 0]], "element_size": 1.0}, r"geometry.points: expected shape"),
+    ({"points": [[0, 0, 0], [1, 0, 0]], "element_size": 0.0}, r"geometry.element_size"),
+    ({"points": [[0, 0, 0], [1, 0, 0]], "element_size": 1.0, "vertex_names": ("a",)},
      r"expected 2 names"),
-    (dict(points=[[0, 0, 0], [1, 0, 0]], element_size=1.0, vertex_names=("a", "a")),
+    ({"points": [[0, 0, 0], [1, 0, 0]], "element_size": 1.0, "vertex_names": ("a", "a")},
      r"duplicate names \['a'\]"),
-    (dict(points=[[0, 0, 0], [np.nan, 0, 0]], element_size=1.0), r"expected finite numbers"),
+    ({"points": [[0, 0, 0], [np.nan, 0, 0]], "element_size": 1.0}, r"expected finite numbers"),
 ])
 def test_beam_geometry_rejects_bad_fields(kwargs, match):
     with pytest.raises(ConfigError, match=match):

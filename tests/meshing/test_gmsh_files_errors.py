@@ -126,9 +126,8 @@ def test_session_of_a_caller_keeps_its_gmsh_and_removes_only_its_model():
 
 
 def test_session_finalizes_after_an_unexpected_error():
-    with pytest.raises(MeshError, match=r"link 'x': gmsh failed: boom"):
-        with gmsh_session("x"):
-            raise RuntimeError("boom")
+    with pytest.raises(MeshError, match=r"link 'x': gmsh failed: boom"), gmsh_session("x"):
+        raise RuntimeError("boom")
     assert not _gmsh_initialized()
 
 
@@ -146,3 +145,17 @@ def test_inverted_curved_elements_are_straightened(caplog):
     assert "straightened" in caplog.text
     assert min_p2_jacobian(mesh.points, mesh.cells["tetra10"]) > 0
     assert_valid_solid(mesh)
+
+
+def test_builtin_kernel_geo_meshes_without_cad_properties(tmp_path):
+    """A .geo without SetFactory("OpenCASCADE") has no exact CAD: cad is empty."""
+    geo = tmp_path / "builtin.geo"
+    geo.write_text("Point(1) = {0, 0, 0};\nPoint(2) = {0.1, 0, 0};\nLine(1) = {1, 2};\n"
+                   "e[] = Extrude {0, 0.02, 0} { Line{1}; };\n"
+                   "v[] = Extrude {0, 0, 0.01} { Surface{e[1]}; };\n"
+                   'Physical Volume("all") = {v[1]};\n')
+    mesh = build_mesh(SolidGeometry("geo", {}, 0.01, 2, geo), "builtin")
+    vol = assert_valid_solid(mesh)
+    np.testing.assert_allclose(vol.sum(), 0.1 * 0.02 * 0.01, rtol=1e-12)
+    assert dict(mesh.cad) == {}
+    np.testing.assert_array_equal(mesh.groups["all"], np.arange(mesh.n_points))

@@ -64,7 +64,7 @@ def test_recipe_gives_valid_mesh(meshes, case):
 @pytest.mark.parametrize("case", CASES)
 def test_bore_groups_are_exactly_the_nodes_on_the_bore_surface(meshes, case):
     mesh = meshes[case]
-    geometry, bores = CASES[case]
+    _, bores = CASES[case]
     for name, (point, axis, radius) in bores.items():
         d = _radial_distance(mesh.points, point, axis)
         # the bore axis line can meet other surfaces only away from the bore: restrict to the

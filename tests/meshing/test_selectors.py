@@ -83,8 +83,8 @@ def test_selector_matching_nothing_says_what_it_looked_for():
 
 
 @pytest.mark.parametrize("make, match", [
-    (lambda: CylinderSurface((0, 0, 0), (0, 0, 0), 1.0), r"CylinderSurface.axis: expected a "
-                                                         r"non-zero direction"),
+    (lambda: CylinderSurface((0, 0, 0), (0, 0, 0), 1.0),
+     r"CylinderSurface.axis: expected a non-zero direction"),
     (lambda: CylinderSurface((0, 0, 0), (0, 0, 1), -1.0), r"CylinderSurface.radius"),
     (lambda: PlaneFace((0, 0), (0, 0, 1)), r"PlaneFace.point: expected shape \(3,\)"),
     (lambda: BoxRegion((0, 0, 1), (1, 1, 0)), r"expected lo <= hi"),
