@@ -47,8 +47,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.kinematics.mechanism import Mechanism
-from pipeline.kinematics.poses import TreeState, evaluate_tree, step_pose, step_value
-from pipeline.kinematics.rotations import vee
+from pipeline.kinematics.poses import (TreeState, evaluate_tree, local_matrices, place_d,
+                                       place_rates)
+
+_I = ([2, 0, 1], [1, 2, 0])  # vee(E) = (E[I] - E[I^T]) / 2
+_IT = ([1, 2, 0], [2, 0, 1])
 
 __all__ = ["ClosureValue", "closure", "closure_gamma", "closure_jacobian",
            "closure_residual", "row_weights"]
@@ -80,48 +83,56 @@ def row_weights(mech: Mechanism) -> np.ndarray:
 
 
 def closure(mech: Mechanism, q: np.ndarray, qd: np.ndarray | None = None,
-            jacobian: bool = True, tree: TreeState | None = None) -> ClosureValue:
-    """Residual, Jacobian (if ``jacobian``) and gamma (if ``qd``) at q (n,).
-
-    ``tree`` may pass in link poses already evaluated at the same q (and qd)
-    with matching derivative content.
-    """
+            jacobian: bool = True) -> ClosureValue:
+    """Residual, Jacobian (if ``jacobian``) and gamma (if ``qd``) at q (n,)."""
     q = np.asarray(q, dtype=float)
-    if tree is None:
-        tree = evaluate_tree(mech, q, qd, derivatives=jacobian)
-    loops = mech.loop_steps
-    r = np.empty(6 * len(loops))
-    J = np.empty((6 * len(loops), mech.n)) if jacobian else None
-    g = np.empty(6 * len(loops)) if qd is not None else None
-    for k, (left, right) in enumerate(loops):
-        a = step_value(left, tree.A, tree.dA, tree.Ad, tree.Add, q, qd, jacobian)
-        b = step_value(right, tree.A, tree.dA, tree.Ad, tree.Add, q, qd, jacobian)
-        RL, RR = a.P[:3, :3], b.P[:3, :3]
-        s = slice(6 * k, 6 * k + 6)
-        r[s][:3] = a.P[:3, 3] - b.P[:3, 3]
-        r[s][3:] = vee(RR @ RL.T)
-        if jacobian:
-            J[s][:3] = (a.dP[:, :3, 3] - b.dP[:, :3, 3]).T
-            dE = b.dP[:, :3, :3] @ RL.T + RR @ a.dP[:, :3, :3].transpose(0, 2, 1)
-            J[s][3:] = vee(dE).T
-        if qd is not None:
-            g[s][:3] = b.Pdd[:3, 3] - a.Pdd[:3, 3]
-            E2 = b.Pdd[:3, :3] @ RL.T + 2.0 * b.Pd[:3, :3] @ a.Pd[:3, :3].T \
-                + RR @ a.Pdd[:3, :3].T
-            g[s][3:] = -vee(E2)
-    return ClosureValue(r, J, g, tree)
+    loc = local_matrices(mech, q, qd, jacobian)
+    tree = evaluate_tree(mech, q, qd, jacobian, loc)
+    K, n = len(mech.loop_steps), mech.n
+    if K == 0:
+        return ClosureValue(np.zeros(0), np.zeros((0, n)) if jacobian else None,
+                            None if qd is None else np.zeros(0), tree)
+    slots = [k for pair in mech.table.loop_slot for k in pair]
+    J = g = None
+    if jacobian:
+        Zs = np.array([place_d(k, loc, mech, tree.Z) for k in slots]).reshape(K, 2, 1 + n, 4, 4)
+        P, dP = Zs[:, :, 0], Zs[:, :, 1:]
+    if qd is not None:
+        Ys = np.array([place_rates(k, loc, mech, tree.Y) for k in slots]).reshape(K, 2, 4, 12)
+        P, Pd, Pdd = Ys[..., :4], Ys[..., 4:8], Ys[..., 8:]
+    if not jacobian and qd is None:
+        P = np.array([tree.A[mech.table.steps[k].frm] @ loc.M[k] for k in slots]).reshape(
+            K, 2, 4, 4)
+    RL, RR = P[:, 0, :3, :3], P[:, 1, :3, :3]
+    RLt = RL.transpose(0, 2, 1)
+    r = np.empty((K, 6))
+    r[:, :3] = P[:, 0, :3, 3] - P[:, 1, :3, 3]
+    r[:, 3:] = _vee(RR @ RLt)
+    if jacobian:
+        J = np.empty((K, 6, n))
+        J[:, :3] = (dP[:, 0, :, :3, 3] - dP[:, 1, :, :3, 3]).transpose(0, 2, 1)
+        dE = dP[:, 1, :, :3, :3] @ RLt[:, None] + RR[:, None] @ dP[:, 0, :, :3, :3].transpose(
+            0, 1, 3, 2)
+        J[:, 3:] = _vee(dE).transpose(0, 2, 1)
+        J = J.reshape(6 * K, n)
+    if qd is not None:
+        g = np.empty((K, 6))
+        g[:, :3] = Pdd[:, 1, :3, 3] - Pdd[:, 0, :3, 3]
+        E2 = Pdd[:, 1, :3, :3] @ RLt + 2.0 * Pd[:, 1, :3, :3] @ Pd[:, 0, :3, :3].transpose(
+            0, 2, 1) + RR @ Pdd[:, 0, :3, :3].transpose(0, 2, 1)
+        g[:, 3:] = -_vee(E2)
+        g = g.reshape(-1)
+    return ClosureValue(r.reshape(-1), J, g, tree)
+
+
+def _vee(E: np.ndarray) -> np.ndarray:
+    """(..., 3) axial vector of the skew part of E (..., 3, 3)."""
+    return 0.5 * (E[..., _I[0], _I[1]] - E[..., _IT[0], _IT[1]])
 
 
 def closure_residual(mech: Mechanism, q: np.ndarray) -> np.ndarray:
     """(6 k,) closure residual at q (n,): position (m) and orientation (rad) rows per loop."""
-    q = np.asarray(q, dtype=float)
-    A = evaluate_tree(mech, q, derivatives=False).A
-    r = np.empty(6 * len(mech.loop_steps))
-    for k, (left, right) in enumerate(mech.loop_steps):
-        TL, TR = step_pose(left, A, q), step_pose(right, A, q)
-        r[6 * k:6 * k + 3] = TL[:3, 3] - TR[:3, 3]
-        r[6 * k + 3:6 * k + 6] = vee(TR[:3, :3] @ TL[:3, :3].T)
-    return r
+    return closure(mech, q, jacobian=False).r
 
 
 def closure_jacobian(mech: Mechanism, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -58,6 +58,11 @@ class Step:
     q_idx : (k,) indices in q of the joint variables.
     tail : (4, 4) constant right factor, None for the identity.
     local : (m + k,) ``eta_idx`` then ``q_idx``: the coordinates M depends on.
+    fast : for a rigid frame with at most one elementary motion, the constant
+        matrices of the closed form M(x) = C0 + sin x C1 + (1 - cos x) C2
+        (rotation, since G^3 = -G for its generator G) or C0 + x C1
+        (translation), with C0 = S0 tail, C1 = S0 G tail, C2 = S0 G^2 tail;
+        else None (general product form).
     """
 
     frm: int
@@ -67,9 +72,77 @@ class Step:
     q_idx: np.ndarray
     tail: np.ndarray | None
     local: np.ndarray = field(init=False, repr=False)
+    fast: tuple | None = field(init=False, repr=False)
 
     def __post_init__(self):
         object.__setattr__(self, "local", np.concatenate([self.eta_idx, self.q_idx]))
+        fast = None
+        if self.frame.n_modes == 0 and (self.motion is None or self.motion.n == 1):
+            tail = np.eye(4) if self.tail is None else self.tail
+            C0 = self.frame.pose @ tail
+            if self.motion is None:
+                fast = ("fixed", C0, None, None, -1)
+            else:
+                G = self.motion.generators[0]
+                fast = (self.motion.kinds[0], C0, self.frame.pose @ G @ tail,
+                        self.frame.pose @ G @ G @ tail, int(self.q_idx[0]))
+        object.__setattr__(self, "fast", fast)
+
+
+@dataclass(frozen=True)
+class StepTable:
+    """All steps (tree steps in placement order, then each loop's two sides) with
+    the constant matrices of the rigid one-motion steps stacked for vectorised
+    evaluation.
+
+    Attributes
+    ----------
+    steps : every step; ``tree_slot[l]`` / ``loop_slot[k]`` index into it.
+    iR, iT, iF, iG : step indices of rotation, translation, fixed and general steps.
+    R0, R1, R2 : (nR, 4, 4) C0, C1, C2 of the rotation steps; qR (nR,) their coordinate.
+    T0, T1 : (nT, 4, 4) C0, C1 of the translation steps; qT (nT,) their coordinate.
+    F0 : (nF, 4, 4) constant M of the fixed steps.
+    """
+
+    steps: tuple[Step, ...]
+    tree_slot: tuple[int, ...]
+    loop_slot: tuple[tuple[int, int], ...]
+    iR: np.ndarray
+    iT: np.ndarray
+    iF: np.ndarray
+    iG: np.ndarray
+    R0: np.ndarray
+    R1: np.ndarray
+    R2: np.ndarray
+    qR: np.ndarray
+    T0: np.ndarray
+    T1: np.ndarray
+    qT: np.ndarray
+    F0: np.ndarray
+
+
+def _table(tree, loops, placement) -> StepTable:
+    steps, tree_slot = [], [-1] * len(tree)
+    for li in placement[1:]:
+        tree_slot[li] = len(steps)
+        steps.append(tree[li])
+    loop_slot = []
+    for left, right in loops:
+        loop_slot.append((len(steps), len(steps) + 1))
+        steps += [left, right]
+    kind = [st.fast[0] if st.fast is not None else "G" for st in steps]
+    idx = {k: np.array([i for i, x in enumerate(kind) if x == k], dtype=int)
+           for k in ("R", "T", "fixed", "G")}
+
+    def stack(k, j):
+        return np.array([steps[i].fast[j] for i in idx[k]]).reshape(-1, 4, 4)
+
+    def coord(k):
+        return np.array([steps[i].fast[4] for i in idx[k]], dtype=int)
+
+    return StepTable(tuple(steps), tuple(tree_slot), tuple(loop_slot), idx["R"], idx["T"],
+                     idx["fixed"], idx["G"], stack("R", 1), stack("R", 2), stack("R", 3),
+                     coord("R"), stack("T", 1), stack("T", 2), coord("T"), stack("fixed", 1))
 
 
 @dataclass(frozen=True)
@@ -86,6 +159,8 @@ class Mechanism:
     tree_steps : per link index, the step placing it (None for ground).
     loop_steps : per loop, (parent side, child side) steps of the cut joint.
     length_scale : m, largest frame offset (>= 1e-3); scales position rows.
+    placement : link indices, ground first, each after its tree parent.
+    table : every step stacked for vectorised evaluation.
     """
 
     links: tuple[Link, ...]
@@ -99,6 +174,8 @@ class Mechanism:
     tree_steps: tuple[Step | None, ...]
     loop_steps: tuple[tuple[Step, Step], ...]
     length_scale: float
+    placement: tuple[int, ...]
+    table: StepTable
 
     @property
     def n(self) -> int:
@@ -219,4 +296,7 @@ def build_mechanism(links: Sequence[Link], joints: Sequence[Joint],
     tree, loops = _compile(links, joints, topo, jidx, midx)
     offsets = [np.linalg.norm(f.pose[:3, 3]) for l in links for f in l.frames]
     scale = max([1e-3] + offsets)
-    return Mechanism(links, joints, ground, topo, names, q0, jidx, midx, tree, loops, scale)
+    placement = tuple([links.index(next(l for l in links if l.name == ground))]
+                      + [e.to for e in topo.edges])
+    return Mechanism(links, joints, ground, topo, names, q0, jidx, midx, tree, loops, scale,
+                     placement, _table(tree, loops, placement))

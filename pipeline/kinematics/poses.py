@@ -29,17 +29,20 @@ Examples
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from pipeline.kinematics.mechanism import Mechanism, Step
 
-__all__ = ["StepValue", "TreeState", "evaluate_tree", "step_local", "step_pose", "step_value"]
+__all__ = ["Locals", "StepValue", "TreeState", "evaluate_tree", "local_matrices", "place_d",
+           "place_rates", "step_local", "step_pose", "step_value"]
 
 _I4 = np.eye(4)
 _Z4 = np.zeros((4, 4))
-for _a in (_I4, _Z4):
+_NO_D = np.zeros((0, 4, 4))
+for _a in (_I4, _Z4, _NO_D):
     _a.setflags(write=False)
 
 
@@ -53,12 +56,16 @@ class TreeState:
     dA : (L, n, 4, 4) dA_l/dq_i, or None.
     Ad : (L, 4, 4) dA_l/dt, or None (no qd given).
     Add : (L, 4, 4) d2A_l/dt2 at q'' = 0, or None.
+    Z : (L, 1 + n, 4, 4) stacked [A, dA] (views share it), or None.
+    Y : (L, 4, 12) stacked [A | A' | A''], or None.
     """
 
     A: np.ndarray
     dA: np.ndarray | None
     Ad: np.ndarray | None
     Add: np.ndarray | None
+    Z: np.ndarray | None = None
+    Y: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -71,8 +78,26 @@ class StepValue:
     Pdd: np.ndarray | None
 
 
+def _fast_local(fast, q, qd, need_d):
+    """Closed-form M, dM, M', M'' of a rigid one-motion step (see ``Step.fast``)."""
+    kind, C0, C1, C2, i = fast
+    if kind == "fixed":
+        return C0, _NO_D, (None if qd is None else _Z4), (None if qd is None else _Z4)
+    x = q[i]
+    if kind == "T":
+        M, dM0, Mdd = C0 + x * C1, C1, _Z4
+    else:
+        c, s = math.cos(x), math.sin(x)
+        M = C0 + s * C1 + (1.0 - c) * C2
+        dM0 = c * C1 + s * C2
+        Mdd = None if qd is None else (qd[i] * qd[i]) * (c * C2 - s * C1)
+    return M, (dM0[None] if need_d else None), (None if qd is None else qd[i] * dM0), Mdd
+
+
 def step_local(step: Step, q: np.ndarray, qd: np.ndarray | None = None, need_d: bool = True):
     """Local matrix M (4, 4), dM/dq_local (k, 4, 4), M' and M''|q''=0 of a step."""
+    if step.fast is not None:
+        return _fast_local(step.fast, q, qd, need_d)
     fr = step.frame
     eta = q[step.eta_idx] if fr.n_modes else None
     S = fr.shape(eta) if fr.n_modes else fr.pose
@@ -114,7 +139,9 @@ def step_value(step: Step, A, dA, Ad, Add, q, qd=None, need_d=True) -> StepValue
     dP = None
     if need_d:
         dP = dA[f] @ M
-        if len(step.local):
+        if step.fast is not None and step.fast[4] >= 0:  # one local coordinate
+            dP[step.fast[4]] += Af @ dM[0]
+        elif len(step.local):
             dP[step.local] += Af @ dM
     Pd = Pdd = None
     if qd is not None:
@@ -128,8 +155,85 @@ def step_pose(step: Step, A: np.ndarray, q: np.ndarray) -> np.ndarray:
     return A[step.frm] @ step_local(step, q, None, need_d=False)[0]
 
 
+@dataclass(frozen=True)
+class Locals:
+    """Local matrices of every step of ``mech.table`` at one configuration.
+
+    M, D1 : (S, 4, 4) M and dM/dx of one-motion steps (0 otherwise);
+    general : {step index: dM (k, 4, 4)} of the other steps;
+    MB : (S, 12, 12) block matrix [[M, M', M''], [0, M, 2 M'], [0, 0, M]] with
+        M'' at q'' = 0 (None without rates), so that [A | A' | A''] MB gives
+        [A M | (A M)' | (A M)''] in one product.
+    """
+
+    M: np.ndarray
+    D1: np.ndarray
+    general: dict
+    MB: np.ndarray | None
+
+
+def local_matrices(mech: Mechanism, q: np.ndarray, qd: np.ndarray | None = None,
+                   need_d: bool = True) -> Locals:
+    """Evaluate every step's local matrix at once (rigid one-motion steps vectorised)."""
+    tab = mech.table
+    S = len(tab.steps)
+    M, D1 = np.empty((S, 4, 4)), np.zeros((S, 4, 4))
+    rates = qd is not None
+    Md = np.zeros((S, 4, 4)) if rates else None
+    Mdd = np.zeros((S, 4, 4)) if rates else None
+    if tab.iR.size:
+        x = q[tab.qR][:, None, None]
+        c, s = np.cos(x), np.sin(x)
+        M[tab.iR] = tab.R0 + s * tab.R1 + (1.0 - c) * tab.R2
+        D1[tab.iR] = dR = c * tab.R1 + s * tab.R2
+        if rates:
+            w = qd[tab.qR][:, None, None]
+            Md[tab.iR] = w * dR
+            Mdd[tab.iR] = (w * w) * (c * tab.R2 - s * tab.R1)
+    if tab.iT.size:
+        x = q[tab.qT][:, None, None]
+        M[tab.iT] = tab.T0 + x * tab.T1
+        D1[tab.iT] = tab.T1
+        if rates:
+            Md[tab.iT] = qd[tab.qT][:, None, None] * tab.T1
+    if tab.iF.size:
+        M[tab.iF] = tab.F0
+    general = {}
+    for k in tab.iG:
+        M[k], general[k], md, mdd = step_local(tab.steps[k], q, qd, need_d)
+        if rates:
+            Md[k], Mdd[k] = md, mdd
+    MB = None
+    if rates:
+        MB = np.zeros((S, 12, 12))
+        for b in range(3):
+            MB[:, 4 * b:4 * b + 4, 4 * b:4 * b + 4] = M
+        MB[:, 0:4, 4:8] = Md
+        MB[:, 4:8, 8:12] = 2.0 * Md
+        MB[:, 0:4, 8:12] = Mdd
+    return Locals(M, D1, general, MB)
+
+
+def place_d(k: int, loc: Locals, mech: Mechanism, Z: np.ndarray) -> np.ndarray:
+    """(1 + n, 4, 4) [P, dP/dq] of step k from the stacked [A, dA/dq] (L, 1 + n, 4, 4)."""
+    st = mech.table.steps[k]
+    Zf = Z[st.frm]
+    out = Zf @ loc.M[k]
+    if st.fast is not None:
+        if st.fast[4] >= 0:
+            out[1 + st.fast[4]] += Zf[0] @ loc.D1[k]
+    elif len(st.local):
+        out[1 + st.local] += Zf[0] @ loc.general[k]
+    return out
+
+
+def place_rates(k: int, loc: Locals, mech: Mechanism, Y: np.ndarray) -> np.ndarray:
+    """(4, 12) [P | P' | P''(q''=0)] of step k from [A | A' | A''] (L, 4, 12)."""
+    return Y[mech.table.steps[k].frm] @ loc.MB[k]
+
+
 def evaluate_tree(mech: Mechanism, q: np.ndarray, qd: np.ndarray | None = None,
-                  derivatives: bool = True) -> TreeState:
+                  derivatives: bool = True, loc: Locals | None = None) -> TreeState:
     """Poses of every link at q (n,); with ``derivatives`` also dA/dq; with qd also A', A''.
 
     Parameters
@@ -137,20 +241,29 @@ def evaluate_tree(mech: Mechanism, q: np.ndarray, qd: np.ndarray | None = None,
     q : (n,) coordinates (rad, m, modal).
     qd : (n,) coordinate rates, optional.
     derivatives : compute dA/dq (L, n, 4, 4).
+    loc : local matrices already evaluated at (q, qd) (see :func:`local_matrices`).
     """
     L, n = len(mech.links), mech.n
-    A = np.empty((L, 4, 4))
-    dA = np.zeros((L, n, 4, 4)) if derivatives else None
-    Ad = Add = None
+    if loc is None:
+        loc = local_matrices(mech, q, qd, derivatives)
+    order, slots = mech.placement, mech.table.tree_slot
+    A = dA = Ad = Add = Z = Y = None
+    if derivatives:
+        Z = np.zeros((L, 1 + n, 4, 4))
+        Z[order[0], 0] = _I4
+        for li in order[1:]:
+            Z[li] = place_d(slots[li], loc, mech, Z)
+        A, dA = Z[:, 0], Z[:, 1:]
     if qd is not None:
-        Ad, Add = np.zeros((L, 4, 4)), np.zeros((L, 4, 4))
-    order = [mech.link_index(mech.ground)] + [e.to for e in mech.topology.edges]
-    A[order[0]] = _I4
-    for li in order[1:]:
-        v = step_value(mech.tree_steps[li], A, dA, Ad, Add, q, qd, derivatives)
-        A[li] = v.P
-        if derivatives:
-            dA[li] = v.dP
-        if qd is not None:
-            Ad[li], Add[li] = v.Pd, v.Pdd
-    return TreeState(A, dA, Ad, Add)
+        Y = np.zeros((L, 4, 12))
+        Y[order[0], :, :4] = _I4
+        for li in order[1:]:
+            Y[li] = place_rates(slots[li], loc, mech, Y)
+        A, Ad, Add = Y[:, :, :4], Y[:, :, 4:8], Y[:, :, 8:]
+    if A is None:
+        A = np.empty((L, 4, 4))
+        A[order[0]] = _I4
+        for li in order[1:]:
+            k = slots[li]
+            A[li] = A[mech.table.steps[k].frm] @ loc.M[k]
+    return TreeState(A, dA, Ad, Add, Z, Y)
