@@ -8,10 +8,20 @@ and :func:`sweep`. Link poses and their derivatives for the dynamics layer:
 This package imports neither gmsh nor scikit-fem nor the FE side.
 """
 
-from pipeline.kinematics.analysis import (Assembly, assemble, solve_acceleration,
-                                          solve_position, solve_velocity)
-from pipeline.kinematics.closure import (ClosureValue, closure, closure_gamma,
-                                         closure_jacobian, closure_residual)
+from pipeline.kinematics.analysis import (
+                                          Assembly,
+                                          assemble,
+                                          solve_acceleration,
+                                          solve_position,
+                                          solve_velocity,
+)
+from pipeline.kinematics.closure import (
+                                          ClosureValue,
+                                          closure,
+                                          closure_gamma,
+                                          closure_jacobian,
+                                          closure_residual,
+)
 from pipeline.kinematics.failures import ClosureError, SingularConfigurationError
 from pipeline.kinematics.joints import JOINTS, Joint, JointType
 from pipeline.kinematics.links import Frame, Link, flexible_link, link_from_frames, rigid_link

@@ -42,8 +42,12 @@ from pipeline.core.errors import ConfigError, KinematicsError
 from pipeline.kinematics.closure import ClosureValue, closure, closure_residual, row_weights
 from pipeline.kinematics.failures import ClosureError, SingularConfigurationError
 from pipeline.kinematics.mechanism import ROW_COMPONENTS, Mechanism
-from pipeline.kinematics.partition import (Partition, normalised_jacobian, numerical_rank,
-                                           select_partition)
+from pipeline.kinematics.partition import (
+    Partition,
+    normalised_jacobian,
+    numerical_rank,
+    select_partition,
+)
 
 __all__ = ["Assembly", "assemble", "solve_acceleration", "solve_position", "solve_velocity"]
 

@@ -47,8 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.kinematics.mechanism import Mechanism
-from pipeline.kinematics.poses import (TreeState, evaluate_tree, local_matrices, place_d,
-                                       place_rates)
+from pipeline.kinematics.poses import TreeState, evaluate_tree, local_matrices, place_d, place_rates
 
 _I = ([2, 0, 1], [1, 2, 0])  # vee(E) = (E[I] - E[I^T]) / 2
 _IT = ([1, 2, 0], [2, 0, 1])

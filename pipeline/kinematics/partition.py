@@ -102,8 +102,8 @@ class DofReport:
         return self.dof - len(self.passive)
 
     def summary(self) -> str:
-        lines = [f"coordinates {self.n_coordinates}, independent constraints {self.rank}, "
-                 f"DOF {self.dof} ({len(self.passive)} passive)",
+        lines = [(f"coordinates {self.n_coordinates}, independent constraints {self.rank}, "
+                  f"DOF {self.dof} ({len(self.passive)} passive)"),
                  f"free after drivers/modes: {list(self.free)}"]
         if self.redundant:
             lines.append(f"redundant constraints: {list(self.redundant)}")

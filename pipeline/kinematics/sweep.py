@@ -3,7 +3,10 @@
 Any object with ``value(t)``, ``rate(t)`` and ``accel(t)`` (floats; see
 :mod:`pipeline.kinematics.drivers`) drives the coordinate it is keyed by.
 Modal coordinates without a driver stay at their ``q_guess`` value; free
-coordinates (DOF left after the drivers) are held at their assembled value.
+coordinates (DOF left after the drivers, e.g. a passive spin or a free
+chassis) are held at their value. An under-driven mechanism has no unique
+motion: after a re-selection a different coordinate is the held one, so the
+rates of such a mechanism may jump there (``reselections`` lists the times).
 
 At every time the dependent coordinates are predicted by a second-order
 Taylor step, closed by Newton (:func:`solve_position`), then the velocity and
@@ -44,8 +47,12 @@ import numpy as np
 
 from pipeline.core.errors import ConfigError, KinematicsError
 from pipeline.core.progress import progress_bar
-from pipeline.kinematics.analysis import (assemble, solve_acceleration, solve_position,
-                                          solve_velocity)
+from pipeline.kinematics.analysis import (
+    assemble,
+    solve_acceleration,
+    solve_position,
+    solve_velocity,
+)
 from pipeline.kinematics.closure import closure
 from pipeline.kinematics.mechanism import Mechanism
 from pipeline.kinematics.partition import normalised_jacobian, select_partition
@@ -170,14 +177,10 @@ def sweep(mech: Mechanism, drivers: Mapping[str, object], t, q_guess: np.ndarray
             qd[idx], qdd[idx] = vd, vdd
             ctx = dict(zip(names, v))
             q, c, its[k] = _solve_point(mech, q, part, tol, tk, ctx)
-            Jn = normalised_jacobian(mech, c.J)[0][part.rows][:, part.dependent]
-            s = np.linalg.svd(Jn, compute_uv=False) if Jn.size else np.ones(1)
-            if s.size and s[-1] / s[0] < part.rcond / reselect_factor:
-                part = select_partition(mech, c.J, prescribed, t=tk, drivers=ctx, q=q,
-                                        expected_rank=rank)
+            new = _reselect(mech, c.J, part, prescribed, rank, reselect_factor, tk, ctx, q)
+            if new is not None:
+                part = new
                 reselections.append(float(tk))
-                logger.info("re-selected dependent coordinates at t = %.6g s: %s", tk,
-                            [mech.coordinates[i] for i in part.dependent])
             qd = solve_velocity(c.J, part, qd)
             cg = closure(mech, q, qd, jacobian=False)
             qdd = solve_acceleration(c.J, cg.gamma, part, qdd)
@@ -191,6 +194,18 @@ def sweep(mech: Mechanism, drivers: Mapping[str, object], t, q_guess: np.ndarray
     free = () if done == 0 else tuple(mech.coordinates[i] for i in part.free)
     return SweepResult(t, Q, Qd, Qdd, mech.coordinates, rec.P, rec.V, rec.Acc, done == N,
                        message, done, its, tuple(reselections), free)
+
+
+def _reselect(mech, J, part, prescribed, rank, factor, tk, ctx, q):
+    """A new partition if the dependent block's rcond fell by more than ``factor``, else None."""
+    Jn = normalised_jacobian(mech, J)[0][part.rows][:, part.dependent]
+    s = np.linalg.svd(Jn, compute_uv=False) if Jn.size else np.ones(1)
+    if not (s.size and s[-1] / s[0] < part.rcond / factor):
+        return None
+    new = select_partition(mech, J, prescribed, t=tk, drivers=ctx, q=q, expected_rank=rank)
+    logger.info("re-selected dependent coordinates at t = %.6g s: %s", tk,
+                [mech.coordinates[i] for i in new.dependent])
+    return new
 
 
 def _solve_point(mech, q, part, tol, tk, ctx):

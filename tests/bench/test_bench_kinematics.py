@@ -16,11 +16,12 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "kinematics"))
 
-import loader_geometry as geo  # noqa: E402
-from loader_model import build_loader  # noqa: E402
-from pipeline.core.atomic import atomic_open  # noqa: E402
-from pipeline.kinematics import sweep  # noqa: E402
-from pipeline.kinematics.drivers import SmoothStep  # noqa: E402
+import loader_geometry as geo
+from loader_model import build_loader
+
+from pipeline.core.atomic import atomic_open
+from pipeline.kinematics import sweep
+from pipeline.kinematics.drivers import SmoothStep
 
 N_POINTS, T_END, REPEATS = 1000, 4.0, 3
 OUT = Path(__file__).resolve().parents[2] / "output" / "bench" / "kinematics.json"

@@ -127,3 +127,17 @@ def wrist_loop():
 def _rx(a):
     c, s = np.cos(a), np.sin(a)
     return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def five_bar(l1=0.5, l2=0.8, l3=0.8, l4=0.5, d=1.0, guess=(1.6, -1.2, -1.0, -1.6, 1.4)):
+    """Planar five-bar (2 DOF): crank l1 at the origin (joint J1), links l2, l3,
+    crank l4 at (d, 0, 0) (joint J5); J2..J4 relative angles; cut at J4."""
+    links = [rigid_link("ground", {"O5": T([d, 0, 0])}), rigid_link("c1", {"A": T([l1, 0, 0])}),
+             rigid_link("b2", {"B": T([l2, 0, 0])}), rigid_link("b3", {"C": T([l3, 0, 0])}),
+             rigid_link("c4", {"C": T([l4, 0, 0])})]
+    joints = [Joint("J1", "revolute", "ground", "body", "c1", "body", (guess[0],)),
+              Joint("J2", "revolute", "c1", "A", "b2", "body", (guess[1],)),
+              Joint("J3", "revolute", "b2", "B", "b3", "body", (guess[2],)),
+              Joint("J4", "revolute", "b3", "C", "c4", "C", (guess[3],)),
+              Joint("J5", "revolute", "ground", "O5", "c4", "body", (guess[4],))]
+    return build_mechanism(links, joints)

@@ -10,9 +10,9 @@ on the barrel at the base pin and on the rod at the rod pin.
 
 from __future__ import annotations
 
+import loader_geometry as geo
 import numpy as np
 
-import loader_geometry as geo
 from pipeline.kinematics import Joint, build_mechanism, rigid_link
 from pipeline.kinematics.rotations import frame_from_z, homogeneous
 

@@ -7,8 +7,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline.kinematics import (Joint, build_mechanism, closure, closure_residual,
-                                 evaluate_tree, flexible_link, rigid_link)
+from pipeline.kinematics import (
+    Joint,
+    build_mechanism,
+    closure,
+    closure_residual,
+    evaluate_tree,
+    flexible_link,
+    rigid_link,
+)
 from pipeline.kinematics.poses import step_value
 from pipeline.kinematics.rotations import exp_so3, homogeneous
 

@@ -4,8 +4,8 @@ its passive coupler spin, and a spherical joint driven across 60 deg."""
 from __future__ import annotations
 
 import numpy as np
-
 from kin_models import four_bar, rssr, rssr_rocker, wrist_loop
+
 from pipeline.kinematics import assemble, closure_residual, dof_report, sweep
 from pipeline.kinematics.poses import evaluate_tree, step_pose
 from pipeline.kinematics.rotations import log_so3, rot_x, rot_y, rot_z

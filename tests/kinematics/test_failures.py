@@ -4,11 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from kin_models import four_bar
+
 from pipeline.core.errors import ConfigError, KinematicsError
-from pipeline.kinematics import (ClosureError, Joint, SingularConfigurationError, assemble,
-                                 build_mechanism, flexible_link, rigid_link, sweep)
+from pipeline.kinematics import (
+    ClosureError,
+    Joint,
+    SingularConfigurationError,
+    assemble,
+    build_mechanism,
+    flexible_link,
+    rigid_link,
+    sweep,
+)
 from pipeline.kinematics.rotations import translation as T
 
 

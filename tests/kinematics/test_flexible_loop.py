@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from closed_form import four_bar
 from kin_models import four_bar as four_bar_model
+
 from pipeline.kinematics import assemble, closure_residual, sweep
 
 A, B, C, D = 0.04, 0.12, 0.09, 0.10

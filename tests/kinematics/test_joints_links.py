@@ -7,8 +7,18 @@ import pytest
 
 from pipeline.core.errors import ConfigError
 from pipeline.kinematics import JOINTS, Joint, flexible_link, rigid_link
-from pipeline.kinematics.rotations import (exp_so3, frame_from_z, homogeneous, inverse, log_so3,
-                                           rot_x, rot_y, rot_z, skew, vee)
+from pipeline.kinematics.rotations import (
+    exp_so3,
+    frame_from_z,
+    homogeneous,
+    inverse,
+    log_so3,
+    rot_x,
+    rot_y,
+    rot_z,
+    skew,
+    vee,
+)
 
 H = 1e-6
 RNG = np.random.default_rng(7)
@@ -53,7 +63,7 @@ def test_joint_second_derivative_term_and_inverse(name):
     """Phi'' at q'' = 0 equals the FD of Phi' along q'; the reversed sequence is Phi^-1."""
     jt = JOINTS[name]
     q, qd = RNG.uniform(-1.0, 1.0, jt.n), RNG.normal(size=jt.n)
-    G, _, Gd, Gdd = jt.motion.evaluate(q, qd)
+    G, _, _, Gdd = jt.motion.evaluate(q, qd)
     fd = (jt.motion.evaluate(q + H * qd, qd)[2] - jt.motion.evaluate(q - H * qd, qd)[2]) / (2 * H)
     assert np.abs(Gdd - fd).max() <= 1e-7 * max(1.0, np.abs(Gdd).max())
     assert np.allclose(jt.reverse.transform(q) @ G, np.eye(4), atol=1e-14)

@@ -4,11 +4,11 @@ geometry module's own (scipy fsolve) planar solution."""
 
 from __future__ import annotations
 
+import loader_geometry as geo
 import numpy as np
 import pytest
-
-import loader_geometry as geo
 from loader_model import build_loader
+
 from pipeline.kinematics import closure_residual, dof_report, sweep
 from pipeline.kinematics.drivers import SmoothStep
 
@@ -51,7 +51,7 @@ def test_loader_dof(loader):
 
 
 def test_full_lift_stroke_sweeps_without_failure(stroke):
-    mech, drivers, res = stroke
+    mech, _, res = stroke
     assert res.success, res.message
     assert res.free == ("CHASSIS_X.d",)
     assert np.all(res["CHASSIS_X.d"] == 0.0)
@@ -80,7 +80,7 @@ def test_lift_stroke_matches_the_geometry_module(stroke):
 
 
 def test_marker_velocity_matches_geometry_module_differences(stroke):
-    mech, drivers, res = stroke
+    _, drivers, res = stroke
     h = 1e-4
     for k in (40, 100, 160):
         tk = res.t[k]

@@ -6,11 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.optimize import brentq
-
 from closed_form import four_bar, slider_crank
 from kin_models import four_bar as four_bar_model
 from kin_models import slider_crank as slider_crank_model
+from scipy.optimize import brentq
+
 from pipeline.kinematics import sweep
 
 W, AL = 3.7, 0.8  # crank rate (rad/s) and angular acceleration (rad/s^2)
@@ -79,7 +79,7 @@ def test_slider_crank_equals_closed_form(r, l, e):
 
 def _four_bar_toggles(a, b, c, d):
     """Crank angles where crank and coupler are collinear (rocker at its extremes)."""
-    f = lambda x: np.sin(four_bar(x, 1.0, 0.0, a, b, c, d).theta3 - x)  # noqa: E731
+    f = lambda x: np.sin(four_bar(x, 1.0, 0.0, a, b, c, d).theta3 - x)
     grid = np.linspace(0, 2 * np.pi, 721)
     vals = f(grid)
     return [brentq(f, grid[i], grid[i + 1], xtol=1e-15)
