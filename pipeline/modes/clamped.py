@@ -1,0 +1,127 @@
+"""Clamped-interface modes of a tied link (the thesis' "tangent frame" modes)."""
+
+from __future__ import annotations
+
+import logging
+import time
+from typing import Iterable
+
+import numpy as np
+
+from pipeline.core.errors import ConfigError, ModalError
+from pipeline.core.progress import stage
+from pipeline.fem.interfaces import Interface, TiedModel
+from pipeline.modes.basis import ModalBasis, frequencies_from_eigenvalues, sign_flips
+from pipeline.modes.clamp import check_reference, clamp_reference
+from pipeline.modes.craig_bampton import craig_bampton_basis
+from pipeline.modes.eigen import DEFAULT_ORDERING, lowest_modes
+
+logger = logging.getLogger(__name__)
+
+
+def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | None = None,
+                  f_max: float | None = None, craig_bampton: bool = False,
+                  interfaces: Iterable[str | Interface] | None = None, *,
+                  ordering: str = DEFAULT_ORDERING) -> ModalBasis:
+    """Fixed-interface normal modes (optionally Craig-Bampton) clamped at ``reference``.
+
+    Parameters
+    ----------
+    tied : TiedModel
+        The link with its interfaces tied (:func:`pipeline.fem.interfaces.tie_interfaces`).
+    reference : name (or Interface) of the clamped interface. RBE2: its 6
+        master DOFs are zero; RBE3: its 6 averaged motions G u = 0, eliminated
+        exactly by pivoting (:mod:`pipeline.modes.clamp`).
+    n_modes : number of (fixed-interface) normal modes; 0 allowed with Craig-Bampton.
+    f_max : keep the normal modes with frequency <= f_max, Hz.
+    craig_bampton : add static constraint modes of ``interfaces`` and orthonormalise.
+    interfaces : Craig-Bampton interfaces (RBE2, not the reference); default all
+        other RBE2 interfaces.
+    ordering : SuperLU fill-reducing ordering (see :mod:`pipeline.modes.eigen`).
+
+    Returns
+    -------
+    ModalBasis
+        Mass-normalised, ordered by frequency, deterministic signs.
+
+    Raises
+    ------
+    ModalError
+        More modes than clamped DOFs; a cut-off that selects no mode; a singular model.
+    ConfigError
+        Unknown interfaces, Craig-Bampton on a non-RBE2 interface, neither n_modes nor f_max.
+    """
+    where = f"link {tied.model_name!r}"
+    ref = check_reference(tied, reference)
+    cb_names = _cb_interfaces(tied, ref, interfaces) if craig_bampton else ()
+    if n_modes is None and f_max is None:
+        raise ConfigError(f"{where}: clamped modes: give n_modes or f_max")
+    t0 = time.perf_counter()
+    with stage(f"clamping {where} at {ref!r}"):
+        space = clamp_reference(tied, ref)
+        K_c, M_c = space.project(tied.stiffness), space.project(tied.mass)
+    what = "Craig-Bampton modes" if craig_bampton else "clamped modes"
+    with stage(f"{what} of {where} ({space.n_c} DOFs)"):
+        if craig_bampton:
+            boundary = np.concatenate([space.index_of(tied.master_dofs[n]) for n in cb_names])
+            lam, X, kinds = craig_bampton_basis(K_c, M_c, boundary, n_modes, f_max,
+                                           ordering=ordering, where=where)
+        else:
+            lam, X = lowest_modes(K_c, M_c, n_modes, f_max, ordering=ordering, where=where)
+            kinds = ("normal",) * lam.size
+        _check_clamped(lam, K_c, M_c, where, ref)
+    X_r = space.L @ X
+    shapes = tied.transform @ X_r
+    flips = sign_flips(shapes)
+    shapes, X_r = shapes * flips, X_r * flips
+    KX, MX = tied.stiffness @ X_r, tied.mass @ X_r
+    settings = {
+        "reference": ref, "reference_kind": tied.interface(ref).kind,
+        "clamp_method": space.method, "n_modes": n_modes, "f_max": f_max,
+        "craig_bampton": bool(craig_bampton), "cb_interfaces": list(cb_names),
+        "ordering": ordering, "eigensolver": "eigsh shift-invert (sigma=0) / dense eigh",
+        "n_dof": tied.n_dof, "n_clamped": space.n_c,
+        "seconds": round(time.perf_counter() - t0, 4),
+    }
+    logger.info("%s: %d modes, %.4g..%.4g Hz", where, lam.size,
+                *frequencies_from_eigenvalues(lam[[0, -1]]))
+    return ModalBasis(frequencies_from_eigenvalues(lam), shapes, X_r,
+                      _sym(X_r.T @ KX), _sym(X_r.T @ MX), kinds, ref, settings)
+
+
+def _check_clamped(lam: np.ndarray, K_c, M_c, where: str, ref: str) -> None:
+    """A clamped model has no rigid modes: omega^2 must be far above round-off.
+
+    Round-off rigid modes come out at |omega^2| ~ eps * lambda_max; a genuine
+    first mode of even a very slender solid stays above 1e-11 * lambda_max
+    (measured 3e-9 on a 4875-DOF bar with L/h = 40). lambda_max is estimated
+    by the largest diagonal ratio K_ii / M_ii.
+    """
+    d = M_c.diagonal()
+    scale = float(np.max(K_c.diagonal()[d > 0] / d[d > 0]))
+    rigid = int(np.sum(lam < 1e-12 * scale))
+    if rigid:
+        raise ModalError(f"{where}: clamped at {ref!r} the model still has {rigid} rigid "
+                         f"mode(s) (omega^2 = {lam[:rigid]}); the clamp does not hold every part "
+                         f"(a mechanism or a detached part)")
+
+
+def _cb_interfaces(tied: TiedModel, ref: str, interfaces) -> tuple[str, ...]:
+    if interfaces is None:
+        return tuple(i.name for i in tied.interfaces if i.kind == "rbe2" and i.name != ref)
+    names = tuple(getattr(i, "name", i) for i in interfaces)
+    for name in names:
+        itf = tied.interface(name)
+        if name == ref:
+            raise ConfigError(f"link {tied.model_name!r}: interface {name!r} is the reference; "
+                              f"it cannot also carry Craig-Bampton constraint modes")
+        if itf.kind != "rbe2":
+            raise ConfigError(f"link {tied.model_name!r}: interface {name!r}: Craig-Bampton "
+                              f"constraint modes need kind 'rbe2', got {itf.kind!r}")
+    if len(set(names)) != len(names):
+        raise ConfigError(f"link {tied.model_name!r}: duplicate Craig-Bampton interfaces {names}")
+    return names
+
+
+def _sym(A: np.ndarray) -> np.ndarray:
+    return 0.5 * (A + A.T)
