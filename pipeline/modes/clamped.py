@@ -54,6 +54,9 @@ def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | No
     where = f"link {tied.model_name!r}"
     ref = check_reference(tied, reference)
     cb_names = _cb_interfaces(tied, ref, interfaces) if craig_bampton else ()
+    if craig_bampton and not cb_names:
+        raise ConfigError(f"{where}: craig_bampton needs at least one RBE2 interface besides "
+                          f"the reference {ref!r}")
     if n_modes is None and f_max is None:
         raise ConfigError(f"{where}: clamped modes: give n_modes or f_max")
     t0 = time.perf_counter()
