@@ -9,7 +9,8 @@ default, is several times slower and uses much more fill). The shift
 defaults to 0, which is below the first eigenvalue of a clamped model (K is
 positive definite); a free-free model needs a small negative shift.
 
-Small problems (or asking for nearly all modes) go to dense LAPACK ``eigh``.
+Small problems (or asking for nearly all modes) go to dense LAPACK ``eigh``,
+also in shift-invert form so that the low modes keep full relative accuracy.
 """
 
 from __future__ import annotations
@@ -118,8 +119,17 @@ def mass_normalise(X: np.ndarray, M: sp.spmatrix) -> np.ndarray:
 def _solve(K, M, k, sigma, ordering, lu, where):
     n = K.shape[0]
     if n < DENSE_BELOW or k >= n - 1:
-        lam, X = la.eigh(_dense(K), _dense(M), subset_by_index=[0, k - 1])
-        return lam, X
+        # dense shift-invert: M x = mu (K - sigma M) x, mu = 1 / (lambda - sigma). The low
+        # modes are the largest mu, so they are accurate to eps relative to themselves
+        # (eigh(K, M) would give eps * lambda_max absolute error on them)
+        A = _dense(K) - sigma * _dense(M)
+        try:
+            mu, X = la.eigh(_dense(M), A, subset_by_index=[n - k, n - 1])
+        except la.LinAlgError as exc:  # A not positive definite
+            raise ModalError(f"{where}: K - sigma M is not positive definite (sigma = {sigma}): "
+                             f"the model is not fully constrained or sigma is above the first "
+                             f"eigenvalue") from exc
+        return sigma + 1.0 / mu[::-1], X[:, ::-1]
     if lu is None:
         lu = factorize(K - sigma * M, ordering, where=where)
     op = spla.LinearOperator((n, n), matvec=lu.solve, dtype=float)
