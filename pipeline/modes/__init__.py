@@ -8,9 +8,9 @@ from pipeline.modes.eigen import ORDERINGS, factorize, lowest_modes
 from pipeline.modes.frame_motion import frame_motion
 
 __all__ = [
+    "ORDERINGS",
     "ClampedSpace",
     "ModalBasis",
-    "ORDERINGS",
     "clamp_reference",
     "clamped_modes",
     "craig_bampton_basis",

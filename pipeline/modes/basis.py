@@ -11,9 +11,10 @@ Conventions (every producer in :mod:`pipeline.modes` applies them):
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 

@@ -15,7 +15,7 @@ import scipy.sparse as sp
 
 from pipeline.fem.model import FemModel
 
-STEEL = dict(E=210e9, nu=0.3, rho=7850.0)
+STEEL = {"E": 210e9, "nu": 0.3, "rho": 7850.0}
 
 
 @functools.lru_cache(maxsize=8)

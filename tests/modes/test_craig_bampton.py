@@ -5,7 +5,6 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from conftest import box_model
 from pipeline.core.errors import ConfigError
 from pipeline.fem.interfaces import make_interface, tie_interfaces
 from pipeline.modes import clamped_modes

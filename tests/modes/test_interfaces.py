@@ -4,8 +4,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
-
 from conftest import box_model
+
 from pipeline.core.errors import ConfigError
 from pipeline.fem.interfaces import (
     InterfaceSpec,
@@ -71,8 +71,8 @@ def test_selector_error_is_wrapped_with_names(bar):
 
 @pytest.mark.parametrize("spec, message", [
     ((("a", XPlane(0.0), [0, 0, 0]), ("a", XPlane(0.4), [0, 0, 0])), "duplicate interface name"),
-    ((("a", XPlane(0.0), [0, 0, 0], None, "rbe9"),), r"kind: expected one of \('rbe2', 'rbe3'\), "
-                                                     r"got 'rbe9'"),
+    ((("a", XPlane(0.0), [0, 0, 0], None, "rbe9"),),
+     r"kind: expected one of \('rbe2', 'rbe3'\), got 'rbe9'"),
     ((("a", XPlane(0.0), [0, 0]),), r"origin: expected shape \(3,\)"),
     ((("a", XPlane(0.0), [0, 0, 0], 2 * np.eye(3)),), "axes: expected a proper rotation"),
 ])

@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
-
 from conftest import box_model
+
 from pipeline.fem.interfaces import make_interface, tie_interfaces
 from pipeline.modes import lowest_modes
 
