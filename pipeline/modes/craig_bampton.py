@@ -57,7 +57,7 @@ def craig_bampton_basis(K: sp.spmatrix, M: sp.spmatrix, boundary: np.ndarray,
     M_ii = sp.csr_matrix(M)[interior][:, interior]
     lu = factorize(K_ii, ordering, where=where)
     Psi = -lu.solve(np.asarray(K_ib.toarray()))  # (n_i, n_b)
-    if n_modes == 0 and f_max is None:
+    if n_modes == 0:  # Guyan: static constraint modes only
         Phi = np.zeros((interior.size, 0))
     else:
         _, Phi = lowest_modes(K_ii, M_ii, n_modes, f_max, sigma=0.0, lu=lu,

@@ -95,13 +95,13 @@ def lowest_modes(K: sp.spmatrix, M: sp.spmatrix, n_modes: int | None = None,
                          f"only {n} DOFs")
     w2_max = np.inf if f_max is None else (2.0 * np.pi * float(f_max)) ** 2
     k = int(n_modes) if n_modes is not None else min(12, n)
+    if lu is None and n >= DENSE_BELOW and k < n - 1:
+        lu = factorize(_shifted(K, M, sigma), ordering, where=where)  # reused while k grows
     while True:
         lam, X = _solve(K, M, k, sigma, ordering, lu, where)
         if f_max is None or lam[-1] > w2_max or k >= n:
             break
         k = min(2 * k, n)
-        if lu is None and n >= DENSE_BELOW:
-            lu = factorize(_shifted(K, M, sigma), ordering, where=where)
     keep = lam <= w2_max
     if not keep.any():
         raise ModalError(f"{where}: f_max = {f_max} Hz selects no mode; the first one is at "
