@@ -31,7 +31,8 @@ def _setup():
     mech, q0 = build_loader()
     lift = geo.CYLINDERS["lift"]
     drivers = {"LCYL.d": SmoothStep(0.0, T_END, lift.min_length, lift.max_length),
-               "TCYL.d": SmoothStep(0.0, T_END, geo.REFERENCE_TILT_LENGTH, 0.75)}
+               "TCYL.d": SmoothStep(0.0, T_END, geo.REFERENCE_TILT_LENGTH,
+                                    geo.CYLINDERS["tilt"].min_length)}
     return mech, q0, drivers, np.linspace(0.0, T_END, N_POINTS)
 
 

@@ -13,7 +13,7 @@ from pipeline.kinematics import closure_residual, dof_report, sweep
 from pipeline.kinematics.drivers import SmoothStep
 
 T_END = 4.0
-TILT_END = 0.75  # m: the bucket rolls back while the arm rises (within 0.45..0.80)
+TILT_END = geo.CYLINDERS["tilt"].min_length  # m: the bucket rolls back while the arm rises
 
 
 @pytest.fixture(scope="module")
