@@ -1,0 +1,103 @@
+"""The multibody system the dynamics layer works on (a description, no state).
+
+Contract shared by the equations of motion (``pipeline.dynamics`` mass
+matrix, velocity terms, gravity, elastic forces), the force elements
+(``pipeline.dynamics.forces``) and the analyses:
+
+* ``mechanism`` is a :class:`pipeline.kinematics.Mechanism`; q follows its
+  coordinate layout (joint variables, then the modal coordinates of every
+  flexible link).
+* ``bodies`` maps a link name to its :class:`BodyMass` in that link's body
+  frame; a link without an entry is massless (ground, cylinder rods one
+  chooses to neglect).
+* ``forces`` are force elements with the protocol of
+  :class:`pipeline.dynamics.forces.base.ForceElement` (generalized force by
+  virtual work, potential energy, dissipated power).
+* ``drivers`` prescribe coordinates by name (``"lift.s"`` -> driver with
+  ``value(t)``, ``rate(t)``, ``accel(t)``); those become rheonomic constraints
+  and their reactions are the actuator forces.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, Mapping
+
+import numpy as np
+
+from pipeline.core.validate import check_positive, validate_array
+
+
+def rigid_C(mass: float, com: np.ndarray, inertia: np.ndarray) -> np.ndarray:
+    """(4, 4) C = int rho r r^T dV of a rigid body.
+
+    Parameters
+    ----------
+    mass : kg. com : (3,) centre of mass in the body frame, m.
+    inertia : (3, 3) inertia tensor about the centre of mass, body axes, kg m^2.
+
+    Examples
+    --------
+    >>> C = rigid_C(2.0, np.array([1.0, 0, 0]), np.diag([1.0, 1.0, 1.0]))
+    >>> float(C[3, 3]), float(C[0, 3]), float(C[0, 0])
+    (2.0, 2.0, 2.5)
+    """
+    com = np.asarray(com, float)
+    inertia = np.asarray(inertia, float)
+    S = 0.5 * np.trace(inertia) * np.eye(3) - inertia + mass * np.outer(com, com)
+    C = np.zeros((4, 4))
+    C[:3, :3] = S
+    C[:3, 3] = C[3, :3] = mass * com
+    C[3, 3] = mass
+    return C
+
+
+@dataclass(frozen=True)
+class BodyMass:
+    """Mass and elastic data of one link in its body frame (DESIGN §2).
+
+    Attributes
+    ----------
+    C : (4, 4) kg, kg m, kg m^2.
+    Cp : (m, 4, 4) C'_a.
+    Cpp : (m, m, 4, 4) C''_ab.
+    stiffness : (m, m) modal stiffness, N m / (modal unit)^2.
+    damping : (m, m) modal damping matrix (e.g. diag(2 zeta omega) for
+        mass-normalised modes), N m s.
+    """
+
+    C: np.ndarray
+    Cp: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 4)))
+    Cpp: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 4, 4)))
+    stiffness: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    damping: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+
+    @property
+    def n_modes(self) -> int:
+        return int(self.Cp.shape[0])
+
+    @classmethod
+    def rigid(cls, mass: float, com, inertia) -> "BodyMass":
+        """Rigid body from mass (kg), centre of mass (3,) m and inertia (3, 3) kg m^2."""
+        check_positive(mass, "mass")
+        com = validate_array(com, (3,), "center_of_mass")
+        inertia = validate_array(inertia, (3, 3), "inertia")
+        return cls(C=rigid_C(mass, com, inertia))
+
+
+@dataclass(frozen=True)
+class System:
+    """Mechanism + masses + forces + drivers + gravity (SI units)."""
+
+    mechanism: Any  # pipeline.kinematics.Mechanism
+    bodies: Mapping[str, BodyMass]
+    gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
+    forces: tuple = ()
+    drivers: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "bodies", MappingProxyType(dict(self.bodies)))
+        object.__setattr__(self, "drivers", MappingProxyType(dict(self.drivers)))
+        object.__setattr__(self, "gravity", validate_array(self.gravity, (3,), "gravity"))
+        object.__setattr__(self, "forces", tuple(self.forces))
