@@ -8,7 +8,7 @@ the modes to keep. Fields are SI units. Unknown keys are rejected.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
@@ -86,7 +86,7 @@ class BoxSelector(Strict):
 
 
 Selector = Annotated[
-    Union[GroupSelector, CylinderSelector, PlaneSelector, NearestSelector, BoxSelector],
+    GroupSelector | CylinderSelector | PlaneSelector | NearestSelector | BoxSelector,
     Field(discriminator="type"),
 ]
 
@@ -132,7 +132,7 @@ class ModesSpec(Strict):
 
 class LinkSpec(Strict):
     name: str = Field(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*$")
-    geometry: Annotated[Union[SolidGeometrySpec, BeamGeometrySpec], Field(discriminator="type")]
+    geometry: Annotated[SolidGeometrySpec | BeamGeometrySpec, Field(discriminator="type")]
     material: MaterialSpec
     sections: list[SectionSpec] = Field(default_factory=list, description="beam sections")
     interfaces: list[InterfaceSpec] = Field(min_length=1)

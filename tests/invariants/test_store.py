@@ -2,30 +2,11 @@
 
 import numpy as np
 import pytest
+from link_samples import random_link as _random_link
 
 from pipeline.core.errors import ArtifactError
 from pipeline.invariants.body_frame import congruent, inverse_pose, points_to_body, pose
-from pipeline.invariants.reduced_link import FrameModes, ReducedLink
 from pipeline.invariants.store import load_reduced_link, save_reduced_link
-
-
-def _random_link(m=3, n=20, seed=0):
-    rng = np.random.default_rng(seed)
-    frames = tuple(
-        FrameModes(f"f{i}", pose(rng.normal(size=3), np.eye(3)), rng.normal(size=(m, 3)),
-                   rng.normal(size=(m, 3)), "interface" if i < 2 else "marker")
-        for i in range(3)
-    )
-    C = rng.normal(size=(4, 4))
-    return ReducedLink(
-        name="arm", kind="solid", body_pose=np.eye(4), C=C + C.T,
-        Cp=rng.normal(size=(m, 4, 4)), Cpp=rng.normal(size=(m, m, 4, 4)),
-        modal_stiffness=np.diag(rng.uniform(1, 2, m)), modal_mass=np.eye(m),
-        frequencies_hz=np.sort(rng.uniform(1, 100, m)), mode_kinds=("normal",) * m,
-        frames=frames, nodes=rng.normal(size=(n, 3)), cells=np.arange(20).reshape(2, 10),
-        surface=np.arange(12).reshape(2, 6), mode_shapes=rng.normal(size=(m, n, 3)),
-        meta={"input_hash": "abc", "settings": {"n_modes": m}},
-    )
 
 
 def test_round_trip_is_exact(tmp_path):

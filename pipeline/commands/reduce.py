@@ -1,0 +1,58 @@
+"""``pipeline reduce LINK_SPEC``: build (or reuse) a reduced link and print its summary."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+
+def add_args(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("spec", type=Path, help="link spec YAML (see meshes/*.yaml)")
+    parser.add_argument("--out", type=Path, default=Path("output/links"),
+                        help="artifact folder (default: output/links)")
+    parser.add_argument("--rebuild", action="store_true", help="ignore a cached artifact")
+    parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+
+
+def run(args: argparse.Namespace) -> int:
+    from pipeline.workflow.link_build import reduce_spec
+    from pipeline.workflow.link_spec import load_link_spec
+
+    spec = load_link_spec(args.spec)
+    link, status = reduce_spec(spec, args.spec.parent, args.out, args.rebuild)
+    summary = {**link.summary(), "artifact": str(args.out / f"{link.name}.npz"),
+               "cache": status, "mesh_quality": dict(link.meta.get("mesh", {}))}
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        _print_table(summary)
+    return 0
+
+
+def _print_table(s: dict) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    con = Console()
+    t = Table(title=f"reduced link '{s['name']}' ({s['kind']}, cache {s['cache']})")
+    t.add_column("quantity")
+    t.add_column("value")
+    t.add_row("nodes / DOF", f"{s['nodes']} / {s['dof']}")
+    t.add_row("mass", f"{s['mass_kg']:.6g} kg")
+    t.add_row("centre of mass (body frame)", _vec(s["center_of_mass_m"]) + " m")
+    t.add_row("inertia about CoM", "\n".join(_vec(r) for r in s["inertia_kgm2"]) + " kg m^2")
+    t.add_row("frequencies", ", ".join(f"{f:.4g}" for f in s["frequencies_hz"]) + " Hz")
+    t.add_row("frames", ", ".join(s["frames"]))
+    for k, v in s["mesh_quality"].items():
+        t.add_row(f"CAD check: {k}", f"{v:.3g}")
+    for k, v in s["stage_seconds"].items():
+        t.add_row(f"time: {k}", f"{v:.3f} s")
+    t.add_row("artifact", s["artifact"])
+    con.print(t)
+
+
+def _vec(v) -> str:
+    return "[" + ", ".join(f"{x: .5g}" for x in np.asarray(v)) + "]"

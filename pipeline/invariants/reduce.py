@@ -1,0 +1,185 @@
+"""Reduce one link: geometry -> mesh -> FE model -> modes -> ReducedLink.
+
+The stage chain of DESIGN §2 as one pure function of a plain
+:class:`LinkRequest` (no YAML here; see ``pipeline.workflow.link_build``).
+Every result is re-expressed in the body frame = the reference interface's
+frame, where the modes are clamped.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from pipeline.core.errors import ConfigError
+from pipeline.core.progress import StageTimes, stage
+from pipeline.fem.interfaces import Interface, InterfaceSpec, make_interface, resolve_interfaces
+from pipeline.fem.model import FemModel
+from pipeline.fem.moments import MassMoments, mass_moments
+from pipeline.invariants.body_frame import congruent, inverse_pose, points_to_body, vectors_to_body
+from pipeline.invariants.reduced_link import FrameModes, ReducedLink
+from pipeline.meshing.geometry import BeamGeometry, SolidGeometry
+from pipeline.meshing.mesh_data import MeshData
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class MarkerRequest:
+    """A named frame whose modal motion is reported (force point, sensor).
+
+    position (3,) m and axes (3, 3) in the link frame; its motion is the
+    least-squares rigid fit over the FE nodes within ``radius`` m (default:
+    the nearest 12 nodes; beams: the nearest node with a rigid offset).
+    """
+
+    name: str
+    position: np.ndarray
+    axes: np.ndarray = field(default_factory=lambda: np.eye(3))
+    radius: float | None = None
+
+
+@dataclass(frozen=True)
+class LinkRequest:
+    """Everything needed to reduce one link (plain values, SI units).
+
+    ``sections`` (beams) holds one BeamSection per polyline member.
+    """
+
+    name: str
+    geometry: SolidGeometry | BeamGeometry
+    material: Any  # pipeline.fem.Material
+    interfaces: tuple[InterfaceSpec, ...]
+    reference: str
+    sections: tuple = ()
+    markers: tuple[MarkerRequest, ...] = ()
+    point_masses: tuple = ()
+    n_modes: int | None = None
+    f_max: float | None = None
+    craig_bampton: bool = False
+
+
+def reduce_link(request: LinkRequest, times: StageTimes | None = None,
+                meta: dict | None = None) -> ReducedLink:
+    """Mesh, assemble, tie, compute modes and invariants of one link.
+
+    Parameters
+    ----------
+    request : LinkRequest
+    times : StageTimes, optional; receives seconds per stage.
+    meta : extra provenance stored in the artifact (input hash, settings).
+
+    Returns
+    -------
+    ReducedLink in the body frame of ``request.reference``.
+    """
+    from pipeline.meshing import build_mesh
+    from pipeline.modes import clamped_modes, frame_motion
+
+    times = times if times is not None else StageTimes()
+    name = request.name
+    with stage(f"meshing link '{name}'", times):
+        mesh = build_mesh(request.geometry, name)
+    with stage(f"assembling K, M of link '{name}'", times):
+        model = _assemble(request, mesh)
+    with stage(f"tying interfaces of link '{name}'", times):
+        from pipeline.fem.interfaces import tie_interfaces
+
+        interfaces = resolve_interfaces(model, request.interfaces, mesh.groups)
+        tied = tie_interfaces(model, interfaces)
+    with stage(f"eigen solve of link '{name}'", times):
+        basis = clamped_modes(tied, request.reference, n_modes=request.n_modes,
+                              f_max=request.f_max, craig_bampton=request.craig_bampton)
+    with stage(f"invariants of link '{name}'", times):
+        moments = mass_moments(model, basis.shapes)
+        markers = tuple(_marker_interface(model, m) for m in request.markers)
+        motions = [(itf, *frame_motion(model, tied, basis, itf)) for itf in
+                   _reference_first(interfaces, request.reference) + markers]
+    ref = tied.interface(request.reference)
+    info = {"n_dof": model.n_dof, "n_nodes": model.n_nodes, "units": "SI (m, kg, s, N, rad)",
+            "stage_seconds": times.as_dict(), "mesh": _mesh_quality(mesh, moments, request),
+            **(meta or {})}
+    return _to_body_frame(name, model, mesh, basis, moments, motions, markers, ref, info)
+
+
+def _assemble(request: LinkRequest, mesh: MeshData) -> FemModel:
+    from pipeline.fem import add_point_masses, assemble_solid
+    from pipeline.fem.material import check_material
+
+    where = f"link '{request.name}'"
+    check_material(request.material, where)
+    if mesh.kind == "solid":
+        model = assemble_solid(mesh, request.material, request.name)
+    else:
+        from pipeline.fem.beam import assemble_beam, sections_by_member
+
+        n_members = len(request.geometry.points) - 1
+        if len(request.sections) != n_members:
+            raise ConfigError(f"{where}: sections: expected one section per member "
+                              f"({n_members}), got {len(request.sections)}")
+        model = assemble_beam(mesh, sections_by_member(mesh, request.sections, request.name),
+                              request.name)
+    if request.point_masses:
+        model = add_point_masses(model, request.point_masses, where)
+    return model
+
+
+def _reference_first(interfaces, reference: str) -> tuple[Interface, ...]:
+    return tuple(sorted(interfaces, key=lambda i: i.name != reference))
+
+
+def _marker_interface(model: FemModel, marker: MarkerRequest) -> Interface:
+    """The marker as an averaging interface over nearby nodes (or one beam node)."""
+    d = np.linalg.norm(model.nodes - np.asarray(marker.position), axis=1)
+    if model.has_rotations:
+        nodes = np.array([int(np.argmin(d))])
+    elif marker.radius is not None:
+        nodes = np.flatnonzero(d <= marker.radius)
+    else:
+        nodes = np.argsort(d)[:12]
+    return make_interface(model, marker.name, marker.position, marker.axes, "rbe3", nodes)
+
+
+def _mesh_quality(mesh: MeshData, moments: MassMoments, request: LinkRequest) -> dict:
+    """Geometric discretisation error: FE mass properties vs the CAD solid's."""
+    if "volume" not in mesh.cad or request.point_masses:
+        return {}
+    rho = request.material.rho
+    C = moments.C
+    m_cad = rho * float(mesh.cad["volume"])
+    S_cad = rho * np.asarray(mesh.cad["second_moment"])
+    c_cad = np.asarray(mesh.cad["centroid"])
+    size = np.sqrt(np.trace(S_cad) / m_cad)
+    return {
+        "cad_mass_kg": m_cad,
+        "mass_rel_error": abs(C[3, 3] - m_cad) / m_cad,
+        "com_error_m": float(np.linalg.norm(C[:3, 3] / C[3, 3] - c_cad)),
+        "second_moment_rel_error": float(np.abs(C[:3, :3] - S_cad).max()
+                                         / (m_cad * size**2)),
+    }
+
+
+def _to_body_frame(name, model, mesh, basis, moments, motions, markers, ref, info) -> ReducedLink:
+    H = ref.pose
+    Hi = inverse_pose(H)
+    frames = []
+    for itf, phi, psi in motions:
+        kind = "marker" if any(itf is m for m in markers) else "interface"
+        frames.append(FrameModes(itf.name, Hi @ itf.pose, vectors_to_body(H, phi),
+                                 vectors_to_body(H, psi), kind))
+    shapes = basis.shapes[model.node_dofs[:, :3]]  # (N, 3, m)
+    cells = model.extras.get("cells", next(iter(mesh.cells.values())))
+    surface = next(iter(mesh.boundary.values()), np.zeros((0, 3), int))
+    K, Mm = basis.modal_stiffness, basis.modal_mass
+    return ReducedLink(
+        name=name, kind=model.kind, body_pose=H,
+        C=congruent(Hi, moments.C), Cp=congruent(Hi, moments.Cp), Cpp=congruent(Hi, moments.Cpp),
+        modal_stiffness=0.5 * (K + K.T), modal_mass=0.5 * (Mm + Mm.T),
+        frequencies_hz=np.asarray(basis.frequencies_hz), mode_kinds=tuple(basis.kinds),
+        frames=tuple(frames), nodes=points_to_body(H, model.nodes),
+        cells=np.asarray(cells), surface=np.asarray(surface),
+        mode_shapes=vectors_to_body(H, np.moveaxis(shapes, 2, 0)), meta=info,
+    )

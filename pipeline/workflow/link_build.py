@@ -1,0 +1,151 @@
+"""LinkSpec (YAML) -> LinkRequest (plain values) and its input hash."""
+
+from __future__ import annotations
+
+import importlib.metadata
+from pathlib import Path
+
+import numpy as np
+
+from pipeline import __version__
+from pipeline.core.errors import ConfigError
+from pipeline.core.hashing import content_hash
+from pipeline.fem.interfaces import InterfaceSpec
+from pipeline.fem.material import Material
+from pipeline.fem.point_masses import PointMass
+from pipeline.fem.section import BeamSection
+from pipeline.invariants.reduce import LinkRequest, MarkerRequest
+from pipeline.invariants.store import FORMAT_VERSION
+from pipeline.meshing.geometry import BeamGeometry, SolidGeometry
+from pipeline.meshing.selectors import SELECTORS
+from pipeline.workflow.link_spec import LinkSpec
+
+_VERSIONED = ("numpy", "scipy", "scikit-fem", "gmsh")
+
+
+def frame_axes(z_axis, x_axis=None) -> np.ndarray:
+    """(3, 3) right-handed axes (columns x, y, z) with z along ``z_axis``.
+
+    ``x_axis`` is made orthogonal to z; by default x is the global axis least
+    aligned with z, orthogonalised.
+
+    Examples
+    --------
+    >>> np.round(frame_axes([0, 0, 1]), 12).tolist()
+    [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+    """
+    z = np.asarray(z_axis, float)
+    z = z / np.linalg.norm(z)
+    x = np.eye(3)[np.argmin(np.abs(z))] if x_axis is None else np.asarray(x_axis, float)
+    x = x - (x @ z) * z
+    if np.linalg.norm(x) < 1e-9:
+        raise ConfigError("x_axis: expected a direction not parallel to z_axis")
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+def _interface(spec, link: str) -> InterfaceSpec:
+    sel = spec.selector
+    fields = sel.model_dump(exclude={"type"}, exclude_none=True)
+    selector = SELECTORS[sel.type](**fields)
+    origin = spec.origin if spec.origin is not None else getattr(sel, "point", None)
+    if origin is None:
+        raise ConfigError(f"link {link!r}: interfaces[{spec.name}].origin: required for a "
+                          f"{sel.type!r} selector")
+    z = spec.z_axis or getattr(sel, "axis", None) or getattr(sel, "normal", None) or [0, 0, 1]
+    return InterfaceSpec(spec.name, selector, np.asarray(origin, float),
+                         frame_axes(z, spec.x_axis), spec.kind)
+
+
+def link_request(spec: LinkSpec, base_dir: Path) -> tuple[LinkRequest, tuple[Path, ...]]:
+    """Plain request for :func:`pipeline.invariants.reduce.reduce_link` and its input files."""
+    g = spec.geometry
+    files: tuple[Path, ...] = ()
+    if g.type == "solid":
+        path = None
+        if g.path is not None:
+            path = (base_dir / g.path).resolve()
+            files = (path,) if path.is_file() else ()
+        geometry = SolidGeometry(g.recipe, dict(g.params), g.mesh_size, g.order, path)
+    else:
+        geometry = BeamGeometry(np.asarray(g.points, float), g.element_size,
+                                tuple(g.vertex_names))
+    mat = Material(spec.material.E, spec.material.nu, spec.material.rho)
+    G = spec.material.E / (2.0 * (1.0 + spec.material.nu))
+    sections = tuple(
+        BeamSection(s.A, s.Iy, s.Iz, s.J, spec.material.E, G, spec.material.rho, s.y_axis)
+        for s in _sections_per_member(spec))
+    request = LinkRequest(
+        name=spec.name, geometry=geometry, material=mat, sections=sections,
+        interfaces=tuple(_interface(i, spec.name) for i in spec.interfaces),
+        reference=spec.reference,
+        markers=tuple(MarkerRequest(m.name, np.asarray(m.position, float),
+                                    frame_axes(m.z_axis or [0, 0, 1], m.x_axis), m.radius)
+                      for m in spec.markers),
+        point_masses=tuple(PointMass(p.name, np.asarray(p.position, float), p.mass,
+                                     None if p.inertia is None else np.asarray(p.inertia))
+                           for p in spec.point_masses),
+        n_modes=spec.modes.count, f_max=spec.modes.f_max,
+        craig_bampton=spec.modes.craig_bampton,
+    )
+    return request, files
+
+
+def _sections_per_member(spec: LinkSpec) -> list:
+    if spec.geometry.type != "beam":
+        return []
+    n = len(spec.geometry.points) - 1
+    out = [None] * n
+    for k, s in enumerate(spec.sections):
+        for i in (range(n) if s.members is None else s.members):
+            if not 0 <= i < n:
+                raise ConfigError(f"link {spec.name!r}: sections[{k}].members: member {i} "
+                                  f"out of range 0..{n - 1}")
+            out[i] = s
+    missing = [i for i, s in enumerate(out) if s is None]
+    if missing:
+        raise ConfigError(f"link {spec.name!r}: sections: members {missing} have no section")
+    return out
+
+
+def input_hash(spec: LinkSpec, files: tuple[Path, ...]) -> str:
+    """Hash of everything that determines the artifact: spec, files, code versions."""
+    return content_hash({"spec": spec.model_dump(mode="json"), "format": FORMAT_VERSION,
+                         "versions": versions()}, files)
+
+
+def versions() -> dict[str, str]:
+    """Versions of the pipeline and of the libraries that shape its numbers."""
+    out = {"pipeline": __version__}
+    for dist in _VERSIONED:
+        try:
+            out[dist] = importlib.metadata.version(dist)
+        except importlib.metadata.PackageNotFoundError:
+            out[dist] = "absent"
+    return out
+
+
+def reduce_spec(spec: LinkSpec, base_dir: Path, out_dir: Path, rebuild: bool = False):
+    """Build (or reuse) the artifact of ``spec`` in ``out_dir/<name>.npz``.
+
+    Returns
+    -------
+    (ReducedLink, status) with status "hit", "miss", "corrupt" or "rebuilt".
+    """
+    from pipeline.core.progress import StageTimes
+    from pipeline.invariants.cache import cached_reduced_link
+    from pipeline.invariants.reduce import reduce_link
+
+    request, files = link_request(spec, Path(base_dir))
+    digest = input_hash(spec, files)
+    meta = {"input_hash": digest, "versions": versions(),
+            "settings": spec.model_dump(mode="json")}
+    path = Path(out_dir) / f"{spec.name}.npz"
+    if rebuild and path.exists():
+        path.unlink()
+
+    def build():
+        return reduce_link(request, StageTimes(), meta)
+
+    link, status = cached_reduced_link(path, digest, build)
+    return link, ("rebuilt" if rebuild else status)

@@ -1,0 +1,60 @@
+"""Sample links for the invariants tests: a bar spec writer and a random artifact."""
+
+import textwrap
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.invariants.body_frame import pose
+from pipeline.invariants.reduced_link import FrameModes, ReducedLink
+
+BAR = """\
+name: bar
+geometry:
+  type: solid
+  recipe: bar
+  params: {{L: {L}, b: {b}, h: {h}}}
+  mesh_size: {size}
+  order: 2
+material: {{E: 70.0e9, nu: 0.3, rho: 2700}}
+interfaces:
+  - name: root
+    selector: {{type: group, name: end_x0}}
+    origin: [0, 0, 0]
+    z_axis: [1, 0, 0]
+    x_axis: [0, 0, 1]
+  - name: tip
+    selector: {{type: group, name: end_xL}}
+    origin: [{L}, 0, 0]
+    z_axis: [1, 0, 0]
+reference: root
+markers:
+  - {{name: mid, position: [{half}, 0, 0], radius: {size}}}
+modes: {{count: {modes}}}
+"""
+
+
+def write_bar(folder: Path, L=0.2, b=0.02, h=0.01, size=0.01, modes=6, name="bar.yaml") -> Path:
+    p = folder / name
+    p.write_text(textwrap.dedent(BAR.format(L=L, b=b, h=h, size=size, modes=modes, half=L / 2)))
+    return p
+
+
+def random_link(m=3, n=20, seed=0):
+    """A ReducedLink with random arrays (for storage tests)."""
+    rng = np.random.default_rng(seed)
+    frames = tuple(
+        FrameModes(f"f{i}", pose(rng.normal(size=3), np.eye(3)), rng.normal(size=(m, 3)),
+                   rng.normal(size=(m, 3)), "interface" if i < 2 else "marker")
+        for i in range(3)
+    )
+    C = rng.normal(size=(4, 4))
+    return ReducedLink(
+        name="arm", kind="solid", body_pose=np.eye(4), C=C + C.T,
+        Cp=rng.normal(size=(m, 4, 4)), Cpp=rng.normal(size=(m, m, 4, 4)),
+        modal_stiffness=np.diag(rng.uniform(1, 2, m)), modal_mass=np.eye(m),
+        frequencies_hz=np.sort(rng.uniform(1, 100, m)), mode_kinds=("normal",) * m,
+        frames=frames, nodes=rng.normal(size=(n, 3)), cells=np.arange(20).reshape(2, 10),
+        surface=np.arange(12).reshape(2, 6), mode_shapes=rng.normal(size=(m, n, 3)),
+        meta={"input_hash": "abc", "settings": {"n_modes": m}},
+    )

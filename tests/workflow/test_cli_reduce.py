@@ -1,0 +1,52 @@
+"""``pipeline reduce``: summary output and clear errors with nothing half-written."""
+
+import json
+import re
+
+import pytest
+from link_samples import write_bar
+
+from pipeline.cli import main
+
+pytestmark = pytest.mark.gmsh
+
+
+def test_reduce_prints_json_summary_and_reuses(tmp_path, capsys):
+    spec = write_bar(tmp_path, modes=3)
+    out = tmp_path / "links"
+    assert main(["reduce", str(spec), "--out", str(out), "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["cache"] == "miss" and s["n_modes"] == 3 and s["dof"] > 0
+    assert s["mass_kg"] == pytest.approx(2700 * 0.2 * 0.02 * 0.01, rel=1e-10)
+    assert set(s["stage_seconds"]) >= {"meshing link 'bar'", "eigen solve of link 'bar'"}
+    assert main(["reduce", str(spec), "--out", str(out), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["cache"] == "hit"
+    assert main(["reduce", str(spec), "--out", str(out)]) == 0  # rich table
+    assert "reduced link 'bar'" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    "edit,expected",
+    [
+        (("name: end_xL", "name: end_xM"), "interface 'tip'.*end_xM"),
+        (("rho: 2700", "rho: 0"), r"material.rho: Input should be greater than 0"),
+        (("nu: 0.3", "nu: -1.5"), r"material.nu: Input should be greater than -1"),
+        (("modes: {count: 3}", "modes: {count: 100000}"), "modes"),
+        (("recipe: bar\n  params: {L: 0.2, b: 0.02, h: 0.01}", "recipe: geo\n  path: missing.geo"),
+         "link 'bar'.*missing.geo"),
+        (("type: group, name: end_xL", "type: cylinder, point: [0.1, 0, 0], axis: [1, 0, 0], "
+          "radius: 0.5"), "interface 'tip'.*matched no"),
+    ],
+)
+def test_bad_input_one_clear_error_nothing_written(tmp_path, capsys, edit, expected):
+    spec = write_bar(tmp_path, modes=3)
+    text = spec.read_text()
+    assert edit[0] in text
+    spec.write_text(text.replace(edit[0], edit[1], 1))
+    out = tmp_path / "links"
+    assert main(["reduce", str(spec), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and "Traceback" not in err
+    import re
+    assert re.search(expected, err, re.S), err
+    assert not out.exists() or list(out.iterdir()) == []
