@@ -20,9 +20,10 @@ matrix, velocity terms, gravity, elastic forces), the force elements
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -78,7 +79,7 @@ class BodyMass:
         return int(self.Cp.shape[0])
 
     @classmethod
-    def rigid(cls, mass: float, com, inertia) -> "BodyMass":
+    def rigid(cls, mass: float, com, inertia) -> BodyMass:
         """Rigid body from mass (kg), centre of mass (3,) m and inertia (3, 3) kg m^2."""
         check_positive(mass, "mass")
         com = validate_array(com, (3,), "center_of_mass")
