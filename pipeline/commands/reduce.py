@@ -15,6 +15,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="artifact folder (default: output/links)")
     parser.add_argument("--rebuild", action="store_true", help="ignore a cached artifact")
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    parser.add_argument("--render", action="store_true",
+                        help="also render the first mode shapes to <out>/<name>_modes.png")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -25,6 +27,10 @@ def run(args: argparse.Namespace) -> int:
     link, status = reduce_spec(spec, args.spec.parent, args.out, args.rebuild)
     summary = {**link.summary(), "artifact": str(args.out / f"{link.name}.npz"),
                "cache": status, "mesh_quality": dict(link.meta.get("mesh", {}))}
+    if args.render:
+        from pipeline.post.render import render_modes
+
+        summary["render"] = str(render_modes(link, args.out / f"{link.name}_modes.png"))
     if args.json:
         print(json.dumps(summary, indent=2))
     else:
@@ -51,6 +57,8 @@ def _print_table(s: dict) -> None:
     for k, v in s["stage_seconds"].items():
         t.add_row(f"time: {k}", f"{v:.3f} s")
     t.add_row("artifact", s["artifact"])
+    if "render" in s:
+        t.add_row("mode shapes", s["render"])
     con.print(t)
 
 

@@ -1,0 +1,1 @@
+"""Post-processing: off-screen renders (pyvista), plots (matplotlib), exports."""
