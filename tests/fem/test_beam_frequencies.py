@@ -12,25 +12,14 @@ import pytest
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from beam_meshes import polyline_mesh
 
 from pipeline.fem.beam import assemble_beam
 from pipeline.fem.section import BeamSection
-from pipeline.meshing.mesh_data import MeshData
 
 L, N_EL = 2.0, 40
 SEC = dict(A=1e-4, Iy=4e-10, Iz=1e-10, J=3e-10, E=2.1e11, G=8.1e10, rho=7850.0)
 BETA_L = np.array([1.875104069, 4.694091133, 7.854757438, 10.99554073])
-
-
-def polyline_mesh(vertices, n_per_member):
-    vertices = np.asarray(vertices, float)
-    pts = [vertices[0]]
-    for a, b in zip(vertices[:-1], vertices[1:]):
-        t = np.linspace(0.0, 1.0, n_per_member + 1)[1:, None]
-        pts.extend(a + t * (b - a))
-    n = len(pts)
-    cells = np.column_stack([np.arange(n - 1), np.arange(1, n)])
-    return MeshData(points=np.array(pts), cells={"line": cells}, kind="beam")
 
 
 def frame_of(e, y_axis):

@@ -2,24 +2,13 @@
 
 import numpy as np
 import pytest
+from beam_meshes import polyline_mesh
 
 from pipeline.fem.beam import assemble_beam, beam_moments
 from pipeline.fem.moments import mass_moments
 from pipeline.fem.section import BeamSection
-from pipeline.meshing.mesh_data import MeshData
 
 E, G, RHO = 2.1e11, 8.1e10, 7850.0
-
-
-def polyline_mesh(vertices, n_per_member):
-    vertices = np.asarray(vertices, float)
-    pts = [vertices[0]]
-    for a, b in zip(vertices[:-1], vertices[1:]):
-        t = np.linspace(0.0, 1.0, n_per_member + 1)[1:, None]
-        pts.extend(a + t * (b - a))
-    n = len(pts)
-    cells = np.column_stack([np.arange(n - 1), np.arange(1, n)])
-    return MeshData(points=np.array(pts), cells={"line": cells}, kind="beam")
 
 
 def skew(v):
@@ -75,7 +64,7 @@ def reference_moments(model, sections, U, n_gauss=6):
             powers, dpowers = np.array([1, s, s**2, s**3]), np.array([0, 1, 2 * s, 3 * s**2])
             phi, th = [], []
             for a in range(m):
-                lin = lambda f: f[0] + s / L * (f[1] - f[0])  # noqa: E731
+                lin = lambda f: f[0] + s / L * (f[1] - f[0])
                 u_l = [lin([uloc[a][0][0], uloc[a][1][0]]), cv[a] @ powers, cw[a] @ powers]
                 t_l = [lin([tloc[a][0][0], tloc[a][1][0]]), -(cw[a] @ dpowers), cv[a] @ dpowers]
                 phi.append(np.append(R.T @ u_l, 0.0))

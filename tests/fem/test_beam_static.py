@@ -8,24 +8,13 @@ with the formulas to rounding, in any orientation of the member.
 import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
+from beam_meshes import polyline_mesh
 from scipy.spatial.transform import Rotation
 
 from pipeline.fem.beam import assemble_beam
 from pipeline.fem.section import BeamSection
-from pipeline.meshing.mesh_data import MeshData
 
 E, G = 2.1e11, 8.1e10
-
-
-def polyline_mesh(vertices, n_per_member):
-    vertices = np.asarray(vertices, float)
-    pts = [vertices[0]]
-    for a, b in zip(vertices[:-1], vertices[1:]):
-        t = np.linspace(0.0, 1.0, n_per_member + 1)[1:, None]
-        pts.extend(a + t * (b - a))
-    n = len(pts)
-    cells = np.column_stack([np.arange(n - 1), np.arange(1, n)])
-    return MeshData(points=np.array(pts), cells={"line": cells}, kind="beam")
 
 
 def solve_clamped(model, clamped_node, loads):
