@@ -7,24 +7,16 @@ import numpy as np
 from kin_models import four_bar, rssr, rssr_rocker, wrist_loop
 
 from pipeline.kinematics import assemble, closure_residual, dof_report, sweep
+from pipeline.kinematics.drivers import Ramp
 from pipeline.kinematics.poses import evaluate_tree, step_pose
 from pipeline.kinematics.rotations import log_so3, rot_x, rot_y, rot_z
 
 PIVOT, A_CRANK = (2.5, 0.5, 1.0), 0.5
 
 
-class Linear:
-    def __init__(self, v0, w):
-        self.v0, self.w = v0, w
-
-    def value(self, t):
-        return self.v0 + self.w * t
-
-    def rate(self, t):
-        return self.w
-
-    def accel(self, t):
-        return 0.0
+def Linear(v0, w):
+    """Coordinate v0 + w t (t >= 0)."""
+    return Ramp(t0=0.0, slope=w, v0=v0)
 
 
 def test_planar_four_bar_in_3d_dof_and_redundant_rows():

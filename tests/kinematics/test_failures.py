@@ -17,6 +17,7 @@ from pipeline.kinematics import (
     rigid_link,
     sweep,
 )
+from pipeline.kinematics.drivers import Ramp
 from pipeline.kinematics.rotations import translation as T
 
 
@@ -92,18 +93,9 @@ def test_loop_that_cannot_close_names_loop_residual_and_closest_configuration():
     assert q[0] == th  # the driven coordinate is kept
 
 
-class Linear:
-    def __init__(self, v0, w):
-        self.v0, self.w = v0, w
-
-    def value(self, t):
-        return self.v0 + self.w * t
-
-    def rate(self, t):
-        return self.w
-
-    def accel(self, t):
-        return 0.0
+def Linear(v0, w):
+    """Coordinate v0 + w t (t >= 0)."""
+    return Ramp(t0=0.0, slope=w, v0=v0)
 
 
 def test_singular_configuration_names_joints_time_and_driver():

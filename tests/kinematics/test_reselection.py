@@ -13,20 +13,12 @@ import numpy as np
 from kin_models import five_bar
 
 from pipeline.kinematics import assemble, closure, closure_residual, sweep
+from pipeline.kinematics.drivers import Ramp
 
 
-class Linear:
-    def __init__(self, v0, w):
-        self.v0, self.w = v0, w
-
-    def value(self, t):
-        return self.v0 + self.w * t
-
-    def rate(self, t):
-        return self.w
-
-    def accel(self, t):
-        return 0.0
+def Linear(v0, w):
+    """Coordinate v0 + w t (t >= 0)."""
+    return Ramp(t0=0.0, slope=w, v0=v0)
 
 
 def _run(factor):
