@@ -1,0 +1,156 @@
+"""Force-element contract and the marker helpers every element uses.
+
+Contract of a :class:`ForceElement` subclass (thesis eqs. 4.148-4.174, DESIGN §4):
+
+1. It is a frozen dataclass: a description, no state. Markers are given as
+   ``(link, frame)`` pairs; coordinates by name (``"crank.theta"``).
+2. ``generalized_force(system, tree, q, qd, t) -> (n,)`` is the virtual work
+   of the element, Q_i = sum_k F_k . dR_k/dq_i + sum_k T_k . w_k,i, with
+   R_k the global point where force F_k acts and w_k,i the angular velocity
+   of the frame where torque T_k acts per unit qd_i. ``tree`` is the
+   :class:`~pipeline.kinematics.TreeState` at q with ``dA`` (derivatives=True).
+3. ``potential_energy(system, tree, q) -> float`` is V with Q = -dV/dq for
+   the conservative part of the element (springs, constant forces), and 0
+   for a non-conservative element (``conservative`` is False). Dampers and
+   time histories are never in V.
+4. ``power(system, tree, q, qd, t) -> float`` is the power the element
+   delivers to the system, Q . qd. For a conservative element it equals
+   -dV/dt; the energy balance of a run is
+   T + V_gravity + V_elastic + sum V_elements = E_0 + int (non-conservative power) dt.
+5. Bad descriptions raise ConfigError naming the element and the field in
+   ``validate(system)`` (called by the analyses before they start).
+
+Subclasses implement ``_force(system, tree, q, qd, t)``; the public methods
+check the shapes once. The helpers :func:`marker_pose`, :func:`marker_point`
+and :func:`marker_twist` give a marker's pose, a point on it with dR/dq and
+velocity, and the angular-velocity Jacobian of its frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from pipeline.core.errors import ConfigError
+from pipeline.kinematics.poses import step_local, step_value
+
+__all__ = ["ForceElement", "MarkerPoint", "check_coordinate", "check_marker", "marker_point",
+           "marker_pose", "marker_twist", "unit_jacobian"]
+
+
+@dataclass(frozen=True)
+class MarkerPoint:
+    """A point fixed on a marker frame at one configuration.
+
+    Attributes
+    ----------
+    R : (3,) global position, m.
+    dR : (n, 3) dR/dq_i (m per unit coordinate).
+    P : (4, 4) global pose of the marker frame.
+    dP : (n, 4, 4) dP/dq_i.
+    """
+
+    R: np.ndarray
+    dR: np.ndarray
+    P: np.ndarray
+    dP: np.ndarray
+
+    def velocity(self, qd: np.ndarray) -> np.ndarray:
+        """(3,) velocity of the point, m/s, for rates qd (n,)."""
+        return qd @ self.dR
+
+
+def marker_pose(system, link: str, frame: str, tree, q: np.ndarray) -> np.ndarray:
+    """(4, 4) global pose of marker ``frame`` on ``link`` (A_link S_frame(eta))."""
+    step = system.mechanism.marker(link, frame)
+    return tree.A[step.frm] @ step_local(step, q, None, need_d=False)[0]
+
+
+def marker_point(system, link: str, frame: str, tree, q: np.ndarray,
+                 offset=None) -> MarkerPoint:
+    """Point at ``offset`` (3,) m in the marker frame (default its origin) with dR/dq.
+
+    Parameters
+    ----------
+    tree : TreeState at q with dA.
+    q : (n,) coordinates.
+    """
+    step = system.mechanism.marker(link, frame)
+    sv = step_value(step, tree.A, tree.dA, None, None, q, None, need_d=True)
+    p = np.array([0.0, 0.0, 0.0, 1.0]) if offset is None else np.append(offset, 1.0)
+    return MarkerPoint((sv.P @ p)[:3], (sv.dP @ p)[:, :3], sv.P, sv.dP)
+
+
+def marker_twist(point: MarkerPoint) -> np.ndarray:
+    """(n, 3) angular velocity of the marker frame per unit qd_i, ground axes, rad.
+
+    From [w_i]x = dR/dq_i R^T (R the frame's rotation; exact for rigid frames,
+    and the small-rotation rate of a flexible one).
+    """
+    Om = point.dP[:, :3, :3] @ point.P[:3, :3].T
+    return 0.5 * np.stack([Om[:, 2, 1] - Om[:, 1, 2], Om[:, 0, 2] - Om[:, 2, 0],
+                           Om[:, 1, 0] - Om[:, 0, 1]], axis=1)
+
+
+def unit_jacobian(a: MarkerPoint, b: MarkerPoint, name: str):
+    """Distance l = |R_b - R_a|, unit vector u (a -> b) and dl/dq (n,)."""
+    d = b.R - a.R
+    length = float(np.linalg.norm(d))
+    if length < 1e-12:
+        raise ConfigError(f"force element '{name}': the two markers coincide (distance "
+                          f"{length:.3e} m); the line of action is undefined")
+    u = d / length
+    return length, u, (b.dR - a.dR) @ u
+
+
+def check_marker(system, marker, name: str, field: str) -> tuple[str, str]:
+    """Validate a ``(link, frame)`` marker against the mechanism."""
+    if not (isinstance(marker, tuple | list) and len(marker) == 2
+            and all(isinstance(x, str) for x in marker)):
+        raise ConfigError(f"force element '{name}': {field}: expected (link, frame), "
+                          f"got {marker!r}")
+    link = system.mechanism.links[system.mechanism.link_index(marker[0])]
+    link.frame(marker[1])
+    return tuple(marker)
+
+
+def check_coordinate(system, coordinate: str, name: str) -> int:
+    """Index of coordinate ``coordinate``; ConfigError naming the element otherwise."""
+    try:
+        return system.mechanism.index(coordinate)
+    except ConfigError as exc:
+        raise ConfigError(f"force element '{name}': coordinate: {exc}") from None
+
+
+class ForceElement:
+    """Base of every force element (see the module docstring for the contract)."""
+
+    #: True when Q = -dV/dq holds for the element's ``potential_energy``.
+    conservative: ClassVar[bool] = False
+    name: str
+
+    def validate(self, system) -> None:
+        """Raise ConfigError if the element does not fit ``system``."""
+
+    def generalized_force(self, system, tree, q, qd, t: float) -> np.ndarray:
+        """(n,) Q by virtual work at (q, qd, t); units N or N m per coordinate unit."""
+        q = np.asarray(q, dtype=float)
+        qd = np.zeros_like(q) if qd is None else np.asarray(qd, dtype=float)
+        Q = np.asarray(self._force(system, tree, q, qd, float(t)), dtype=float)
+        if Q.shape != q.shape:
+            raise ConfigError(f"force element '{self.name}': generalized force has shape "
+                              f"{Q.shape}, expected {q.shape}")
+        return Q
+
+    def potential_energy(self, system, tree, q) -> float:
+        """V (J) of the conservative part; 0 for a non-conservative element."""
+        return 0.0
+
+    def power(self, system, tree, q, qd, t: float) -> float:
+        """Power delivered to the system, W (Q . qd)."""
+        return float(self.generalized_force(system, tree, q, qd, t) @ np.asarray(qd, float))
+
+    def _force(self, system, tree, q, qd, t):  # pragma: no cover - abstract
+        raise NotImplementedError

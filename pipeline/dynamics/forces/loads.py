@@ -1,0 +1,194 @@
+"""Applied loads: forces (fixed direction, follower, along a line), torques, joint loads.
+
+Magnitudes are a constant or a time history (any object with ``value(t)``,
+e.g. a :mod:`pipeline.kinematics.drivers` driver, or a plain callable t -> float).
+An element with a constant magnitude and a ground-fixed direction is conservative
+(V = -F . R, or -f l along a line, or -f q on a coordinate).
+
+Examples
+--------
+>>> PointForce("w", ("bucket", "LOAD"), (0.0, 0.0, -4448.2)).conservative
+True
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from pipeline.core.errors import ConfigError
+from pipeline.core.validate import validate_array
+from pipeline.dynamics.forces.base import (ForceElement, check_coordinate, check_marker,
+                                           marker_point, marker_twist, unit_jacobian)
+
+__all__ = ["ForceCylinder", "FollowerForce", "JointForce", "LineForce", "PointForce", "Torque",
+           "history_value"]
+
+
+def history_value(history: Any, t: float, name: str) -> float:
+    """Scale factor of a time history at t: number, ``value(t)`` object or callable."""
+    if history is None:
+        return 1.0
+    if isinstance(history, int | float):
+        return float(history)
+    f = history.value if hasattr(history, "value") else history
+    if not callable(f):
+        raise ConfigError(f"force element '{name}': history: expected a number, a driver "
+                          f"with value(t) or a callable, got {type(history).__name__}")
+    return float(f(t))
+
+
+@dataclass(frozen=True)
+class PointForce(ForceElement):
+    """Force (3,) N in ground axes at a point ``offset`` (3,) m of a marker frame,
+    scaled by ``history`` (None: constant)."""
+
+    name: str
+    marker: tuple[str, str]
+    force: tuple
+    offset: tuple = (0.0, 0.0, 0.0)
+    history: Any = None
+
+    def __post_init__(self):
+        validate_array(self.force, (3,), f"force element '{self.name}': force")
+        validate_array(self.offset, (3,), f"force element '{self.name}': offset")
+
+    @property
+    def conservative(self) -> bool:
+        return self.history is None
+
+    def validate(self, system) -> None:
+        check_marker(system, self.marker, self.name, "marker")
+
+    def _point(self, system, tree, q):
+        return marker_point(system, *self.marker, tree, q, np.asarray(self.offset, float))
+
+    def _force(self, system, tree, q, qd, t):
+        F = history_value(self.history, t, self.name) * np.asarray(self.force, float)
+        return self._point(system, tree, q).dR @ F
+
+    def potential_energy(self, system, tree, q) -> float:
+        if not self.conservative:
+            return 0.0
+        return -float(np.asarray(self.force, float) @ self._point(system, tree, q).R)
+
+
+@dataclass(frozen=True)
+class FollowerForce(PointForce):
+    """Force (3,) N given in the marker frame's axes (turns with the marker)."""
+
+    @property
+    def conservative(self) -> bool:
+        return False
+
+    def _force(self, system, tree, q, qd, t):
+        p = self._point(system, tree, q)
+        F = history_value(self.history, t, self.name) * (p.P[:3, :3] @ np.asarray(self.force))
+        return p.dR @ F
+
+    def potential_energy(self, system, tree, q) -> float:
+        return 0.0
+
+
+@dataclass(frozen=True)
+class LineForce(ForceElement):
+    """Force of magnitude ``force`` (N, positive pushes the markers apart) along the
+    line from marker_a to marker_b, equal and opposite on the two markers."""
+
+    name: str
+    marker_a: tuple[str, str]
+    marker_b: tuple[str, str]
+    force: float
+    history: Any = None
+
+    @property
+    def conservative(self) -> bool:
+        return self.history is None
+
+    def validate(self, system) -> None:
+        check_marker(system, self.marker_a, self.name, "marker_a")
+        check_marker(system, self.marker_b, self.name, "marker_b")
+
+    def _line(self, system, tree, q):
+        a = marker_point(system, *self.marker_a, tree, q)
+        b = marker_point(system, *self.marker_b, tree, q)
+        return unit_jacobian(a, b, self.name)
+
+    def _force(self, system, tree, q, qd, t):
+        f = history_value(self.history, t, self.name) * float(self.force)
+        return f * self._line(system, tree, q)[2]
+
+    def potential_energy(self, system, tree, q) -> float:
+        if not self.conservative:
+            return 0.0
+        return -float(self.force) * self._line(system, tree, q)[0]
+
+
+@dataclass(frozen=True)
+class Torque(ForceElement):
+    """Torque (3,) N m on a marker's link, in ground axes or (``follower``) in the
+    marker frame's axes, scaled by ``history``."""
+
+    name: str
+    marker: tuple[str, str]
+    torque: tuple
+    follower: bool = False
+    history: Any = None
+
+    def __post_init__(self):
+        validate_array(self.torque, (3,), f"force element '{self.name}': torque")
+
+    def validate(self, system) -> None:
+        check_marker(system, self.marker, self.name, "marker")
+
+    def _force(self, system, tree, q, qd, t):
+        p = marker_point(system, *self.marker, tree, q)
+        T = history_value(self.history, t, self.name) * np.asarray(self.torque, float)
+        if self.follower:
+            T = p.P[:3, :3] @ T
+        return marker_twist(p) @ T
+
+
+@dataclass(frozen=True)
+class JointForce(ForceElement):
+    """Generalized force (N or N m) on one coordinate, scaled by ``history``."""
+
+    name: str
+    coordinate: str
+    force: float = 1.0
+    history: Any = None
+
+    @property
+    def conservative(self) -> bool:
+        return self.history is None
+
+    def validate(self, system) -> None:
+        check_coordinate(system, self.coordinate, self.name)
+
+    def _force(self, system, tree, q, qd, t):
+        Q = np.zeros_like(q)
+        Q[system.mechanism.index(self.coordinate)] = (
+            history_value(self.history, t, self.name) * float(self.force))
+        return Q
+
+    def potential_energy(self, system, tree, q) -> float:
+        if not self.conservative:
+            return 0.0
+        return -float(self.force) * float(q[system.mechanism.index(self.coordinate)])
+
+
+@dataclass(frozen=True)
+class ForceCylinder(JointForce):
+    """Force-driven cylinder: force (N, positive extends) along a prismatic joint's
+    coordinate with the time history ``history``."""
+
+    def validate(self, system) -> None:
+        i = check_coordinate(system, self.coordinate, self.name)
+        mech = system.mechanism
+        owner = mech.joint_of(i)
+        kind = next((j.kind.name for j in mech.joints if j.name == owner), None)
+        if kind not in ("prismatic", "cylindrical") or not self.coordinate.endswith(".d"):
+            raise ConfigError(f"force element '{self.name}': coordinate: expected the stroke "
+                              f"of a prismatic joint, got '{self.coordinate}'")

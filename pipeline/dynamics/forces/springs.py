@@ -1,0 +1,159 @@
+"""Spring-dampers: point to point (linear or by force-deflection table) and on a joint coordinate.
+
+Point to point between markers a and b: length l = |R_b - R_a|, tension
+f = f(l) + c l' (positive pulls the markers together), so
+Q = -f dl/dq and V = int f(l) dl. Joint spring on coordinate q_k:
+Q_k = -k (q_k - q0) - c q_k'.
+
+Examples
+--------
+>>> s = SpringDamper("s", ("ground", "body"), ("arm", "tip"), stiffness=100.0, free_length=0.5)
+>>> s.tension(0.75, 0.0)
+25.0
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pipeline.core.errors import ConfigError
+from pipeline.core.validate import validate_array
+from pipeline.dynamics.forces.base import (ForceElement, check_coordinate, check_marker,
+                                           marker_point, unit_jacobian)
+
+__all__ = ["JointSpringDamper", "SpringDamper", "TableSpringDamper"]
+
+
+def _nonneg(value, name: str, field: str) -> float:
+    v = float(value)
+    if not np.isfinite(v) or v < 0.0:
+        raise ConfigError(f"force element '{name}': {field}: expected a finite value >= 0, "
+                          f"got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class SpringDamper(ForceElement):
+    """Linear spring (N/m, free length m, preload N) and damper (N s/m) between two markers."""
+
+    name: str
+    marker_a: tuple[str, str]
+    marker_b: tuple[str, str]
+    stiffness: float = 0.0
+    free_length: float = 0.0
+    damping: float = 0.0
+    preload: float = 0.0
+
+    conservative = True
+
+    def __post_init__(self):
+        _nonneg(self.stiffness, self.name, "stiffness")
+        _nonneg(self.damping, self.name, "damping")
+        _nonneg(self.free_length, self.name, "free_length")
+
+    def validate(self, system) -> None:
+        check_marker(system, self.marker_a, self.name, "marker_a")
+        check_marker(system, self.marker_b, self.name, "marker_b")
+
+    def elastic(self, length: float) -> float:
+        """Elastic tension (N) at length (m)."""
+        return self.preload + self.stiffness * (length - self.free_length)
+
+    def energy(self, length: float) -> float:
+        """Stored energy (J): int_{l0}^{l} elastic dl."""
+        x = length - self.free_length
+        return self.preload * x + 0.5 * self.stiffness * x * x
+
+    def tension(self, length: float, rate: float) -> float:
+        """Total tension (N): elastic plus damping c l'."""
+        return self.elastic(length) + self.damping * rate
+
+    def _geometry(self, system, tree, q):
+        a = marker_point(system, *self.marker_a, tree, q)
+        b = marker_point(system, *self.marker_b, tree, q)
+        length, _, dl = unit_jacobian(a, b, self.name)
+        return length, dl
+
+    def _force(self, system, tree, q, qd, t):
+        length, dl = self._geometry(system, tree, q)
+        return -self.tension(length, float(dl @ qd)) * dl
+
+    def potential_energy(self, system, tree, q) -> float:
+        return self.energy(self._geometry(system, tree, q)[0])
+
+
+@dataclass(frozen=True)
+class TableSpringDamper(SpringDamper):
+    """Spring given by a force-deflection table (piecewise linear, extrapolated linearly
+    from the end segments) plus a linear damper.
+
+    deflection : (k,) l - free_length, m, strictly increasing; force : (k,) tension, N.
+    """
+
+    deflection: tuple = ()
+    force: tuple = ()
+
+    def __post_init__(self):
+        super().__post_init__()
+        x = validate_array(self.deflection, (-1,), f"force element '{self.name}': deflection")
+        f = validate_array(self.force, (x.size,), f"force element '{self.name}': force")
+        if x.size < 2 or np.any(np.diff(x) <= 0):
+            raise ConfigError(f"force element '{self.name}': deflection: expected at least "
+                              f"2 strictly increasing values, got {x.tolist()}")
+        object.__setattr__(self, "deflection", tuple(x))
+        object.__setattr__(self, "force", tuple(f))
+
+    def _segment(self, x: float):
+        xs, fs = np.asarray(self.deflection), np.asarray(self.force)
+        k = int(np.clip(np.searchsorted(xs, x) - 1, 0, xs.size - 2))
+        slope = (fs[k + 1] - fs[k]) / (xs[k + 1] - xs[k])
+        return k, xs, fs, slope
+
+    def elastic(self, length: float) -> float:
+        x = length - self.free_length
+        k, xs, fs, slope = self._segment(x)
+        return float(fs[k] + slope * (x - xs[k]))
+
+    def energy(self, length: float) -> float:
+        """int_0^x f dx' (trapezoids over the table, exact for piecewise-linear f)."""
+        x = length - self.free_length
+        return self._integral(x) - self._integral(0.0)
+
+    def _integral(self, x: float) -> float:
+        xs, fs = np.asarray(self.deflection), np.asarray(self.force)
+        cum = np.concatenate([[0.0], np.cumsum(0.5 * (fs[1:] + fs[:-1]) * np.diff(xs))])
+        k, _, _, slope = self._segment(x)
+        dx = x - xs[k]
+        return float(cum[k] + fs[k] * dx + 0.5 * slope * dx * dx)
+
+
+@dataclass(frozen=True)
+class JointSpringDamper(ForceElement):
+    """Spring k (N m/rad or N/m) about free value q0 and damper c on one coordinate."""
+
+    name: str
+    coordinate: str
+    stiffness: float = 0.0
+    free_value: float = 0.0
+    damping: float = 0.0
+
+    conservative = True
+
+    def __post_init__(self):
+        _nonneg(self.stiffness, self.name, "stiffness")
+        _nonneg(self.damping, self.name, "damping")
+
+    def validate(self, system) -> None:
+        check_coordinate(system, self.coordinate, self.name)
+
+    def _force(self, system, tree, q, qd, t):
+        i = system.mechanism.index(self.coordinate)
+        Q = np.zeros_like(q)
+        Q[i] = -self.stiffness * (q[i] - self.free_value) - self.damping * qd[i]
+        return Q
+
+    def potential_energy(self, system, tree, q) -> float:
+        x = q[system.mechanism.index(self.coordinate)] - self.free_value
+        return 0.5 * self.stiffness * x * x
