@@ -16,9 +16,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "kinematics"))
 
-from pipeline.dynamics import BodyMass  # noqa: E402
-from pipeline.kinematics import Joint, build_mechanism, flexible_link, rigid_link  # noqa: E402
-from pipeline.kinematics.rotations import homogeneous, rot_x, rot_y, translation  # noqa: E402
+from pipeline.dynamics import BodyMass
+from pipeline.kinematics import Joint, build_mechanism, flexible_link, rigid_link
+from pipeline.kinematics.rotations import homogeneous, rot_x, rot_y, translation
 
 T = translation
 

@@ -15,9 +15,18 @@ from dyn2_models import spatial_chain
 
 from pipeline.core.errors import ConfigError
 from pipeline.dynamics import System
-from pipeline.dynamics.forces import (FORCES, FollowerForce, ForceCylinder, JointForce,
-                                      JointSpringDamper, LineForce, PointForce, SpringDamper,
-                                      TableSpringDamper, Torque)
+from pipeline.dynamics.forces import (
+    FORCES,
+    FollowerForce,
+    ForceCylinder,
+    JointForce,
+    JointSpringDamper,
+    LineForce,
+    PointForce,
+    SpringDamper,
+    TableSpringDamper,
+    Torque,
+)
 from pipeline.kinematics import evaluate_tree
 from pipeline.kinematics.drivers import Harmonic
 from pipeline.kinematics.poses import step_pose
@@ -30,7 +39,7 @@ STATES = [(RNG.uniform(-1.5, 1.5, MECH.n), RNG.uniform(-2, 2, MECH.n), RNG.unifo
           for _ in range(3)]
 M1, M2, M3 = ("L1", "m1"), ("L2", "tip"), ("L3", "m3")
 MID, GND = ("L2", "mid"), ("ground", "anchor")
-TABLE = dict(deflection=(-0.5, -0.1, 0.0, 0.2, 1.0), force=(-900.0, -100.0, 0.0, 150.0, 2000.0))
+TABLE = {"deflection": (-0.5, -0.1, 0.0, 0.2, 1.0), "force": (-900.0, -100.0, 0.0, 150.0, 2000.0)}
 
 
 def pose(marker, q):
@@ -97,9 +106,9 @@ def virtual_work_Q(loads, q, qd, t):
             e = np.zeros(MECH.n)
             e[i] = 1.0
             if F is not None:
-                Q[i] += F @ rate(lambda x: point(marker, x, off), q, e)
+                Q[i] += F @ rate(lambda x, m=marker, o=off: point(m, x, o), q, e)
             if Tq is not None:
-                Rd = rate(lambda x: pose(marker, x)[:3, :3], q, e)
+                Rd = rate(lambda x, m=marker: pose(m, x)[:3, :3], q, e)
                 W = Rd @ pose(marker, q)[:3, :3].T
                 Q[i] += Tq @ (0.5 * np.array([W[2, 1] - W[1, 2], W[0, 2] - W[2, 0],
                                               W[1, 0] - W[0, 1]]))

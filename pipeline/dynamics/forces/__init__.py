@@ -4,8 +4,14 @@
 """
 
 from pipeline.dynamics.forces.base import ForceElement, MarkerPoint, marker_point, marker_pose
-from pipeline.dynamics.forces.loads import (FollowerForce, ForceCylinder, JointForce, LineForce,
-                                            PointForce, Torque)
+from pipeline.dynamics.forces.loads import (
+                                            FollowerForce,
+                                            ForceCylinder,
+                                            JointForce,
+                                            LineForce,
+                                            PointForce,
+                                            Torque,
+)
 from pipeline.dynamics.forces.springs import JointSpringDamper, SpringDamper, TableSpringDamper
 
 #: Force element classes keyed by type name.

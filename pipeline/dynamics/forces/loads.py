@@ -20,11 +20,24 @@ import numpy as np
 
 from pipeline.core.errors import ConfigError
 from pipeline.core.validate import validate_array
-from pipeline.dynamics.forces.base import (ForceElement, check_coordinate, check_marker,
-                                           marker_point, marker_twist, unit_jacobian)
+from pipeline.dynamics.forces.base import (
+    ForceElement,
+    check_coordinate,
+    check_marker,
+    marker_point,
+    marker_twist,
+    unit_jacobian,
+)
 
-__all__ = ["ForceCylinder", "FollowerForce", "JointForce", "LineForce", "PointForce", "Torque",
-           "history_value"]
+__all__ = [
+    "FollowerForce",
+    "ForceCylinder",
+    "JointForce",
+    "LineForce",
+    "PointForce",
+    "Torque",
+    "history_value",
+]
 
 
 def history_value(history: Any, t: float, name: str) -> float:

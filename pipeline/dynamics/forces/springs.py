@@ -20,8 +20,13 @@ import numpy as np
 
 from pipeline.core.errors import ConfigError
 from pipeline.core.validate import validate_array
-from pipeline.dynamics.forces.base import (ForceElement, check_coordinate, check_marker,
-                                           marker_point, unit_jacobian)
+from pipeline.dynamics.forces.base import (
+    ForceElement,
+    check_coordinate,
+    check_marker,
+    marker_point,
+    unit_jacobian,
+)
 
 __all__ = ["JointSpringDamper", "SpringDamper", "TableSpringDamper"]
 
