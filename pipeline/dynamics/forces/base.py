@@ -17,6 +17,9 @@ Contract of a :class:`ForceElement` subclass (thesis eqs. 4.148-4.174, DESIGN §
    delivers to the system, Q . qd. For a conservative element it equals
    -dV/dt; the energy balance of a run is
    T + V_gravity + V_elastic + sum V_elements = E_0 + int (non-conservative power) dt.
+   ``nonconservative_force(...)`` is the part of Q that is not -dV/dq (the
+   damper of a spring-damper, a time history, a follower load); its power is
+   the non-conservative power. ``conservative`` is True when that part is zero.
 5. Bad descriptions raise ConfigError naming the element and the field in
    ``validate(system)`` (called by the analyses before they start).
 
@@ -147,6 +150,12 @@ class ForceElement:
     def potential_energy(self, system, tree, q) -> float:
         """V (J) of the conservative part; 0 for a non-conservative element."""
         return 0.0
+
+    def nonconservative_force(self, system, tree, q, qd, t: float) -> np.ndarray:
+        """(n,) part of Q that is not -dV/dq (all of Q for a non-conservative element)."""
+        if self.conservative:
+            return np.zeros(len(np.asarray(q)))
+        return self.generalized_force(system, tree, q, qd, t)
 
     def power(self, system, tree, q, qd, t: float) -> float:
         """Power delivered to the system, W (Q . qd)."""

@@ -51,12 +51,19 @@ class SpringDamper(ForceElement):
     damping: float = 0.0
     preload: float = 0.0
 
-    conservative = True
-
     def __post_init__(self):
         _nonneg(self.stiffness, self.name, "stiffness")
         _nonneg(self.damping, self.name, "damping")
         _nonneg(self.free_length, self.name, "free_length")
+
+    @property
+    def conservative(self) -> bool:
+        return self.damping == 0.0
+
+    def nonconservative_force(self, system, tree, q, qd, t: float) -> np.ndarray:
+        """(n,) damper part -c l' dl/dq."""
+        _, dl = self._geometry(system, tree, np.asarray(q, float))
+        return -self.damping * float(dl @ np.asarray(qd, float)) * dl
 
     def validate(self, system) -> None:
         check_marker(system, self.marker_a, self.name, "marker_a")
@@ -144,11 +151,20 @@ class JointSpringDamper(ForceElement):
     free_value: float = 0.0
     damping: float = 0.0
 
-    conservative = True
-
     def __post_init__(self):
         _nonneg(self.stiffness, self.name, "stiffness")
         _nonneg(self.damping, self.name, "damping")
+
+    @property
+    def conservative(self) -> bool:
+        return self.damping == 0.0
+
+    def nonconservative_force(self, system, tree, q, qd, t: float) -> np.ndarray:
+        """(n,) damper part -c q_k'."""
+        Q = np.zeros(len(np.asarray(q)))
+        i = system.mechanism.index(self.coordinate)
+        Q[i] = -self.damping * float(np.asarray(qd, float)[i])
+        return Q
 
     def validate(self, system) -> None:
         check_coordinate(system, self.coordinate, self.name)

@@ -1,0 +1,237 @@
+"""Static equilibrium in the independent coordinates of a closed-loop machine.
+
+Unknowns x: the free joint coordinates (neither driven nor dependent) and
+every modal coordinate, so static elastic deflection comes out with the
+joint configuration. Driven coordinates are held at ``driver.value(t)``;
+dependent ones follow from position analysis (closure) for every x. With the
+velocity transform B = dq/dx (n, k) (B[x] = I, B[dep] = -J_d^-1 J_x) the
+reduced equilibrium is
+
+    f(x) = B^T (Q_gravity + Q_elastic + Q_forces)(q(x)) = 0,
+
+solved by Newton with a central-difference tangent df/dx (each evaluation
+closes the loops). ``-df/dx`` at the solution is the tangent stiffness of the
+reduced system (used by :mod:`pipeline.dynamics.linearize`).
+
+Examples
+--------
+>>> import numpy as np
+>>> from pipeline.kinematics import Joint, build_mechanism, rigid_link
+>>> from pipeline.dynamics import BodyMass, System
+>>> from pipeline.dynamics.forces import JointSpringDamper
+>>> mech = build_mechanism([rigid_link("ground"), rigid_link("arm")],
+...                        [Joint("pin", "revolute", "ground", "body", "arm", "body")])
+>>> s = System(mech, {"arm": BodyMass.rigid(1.0, [1.0, 0, 0], np.eye(3))}, [0, -9.81, 0],
+...            forces=[JointSpringDamper("k", "pin.theta", stiffness=100.0)])
+>>> r = static_equilibrium(s, np.zeros(1))
+>>> r.success, abs(100.0 * r.q[0] + 9.81 * np.cos(r.q[0])) < 1e-9
+(True, True)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pipeline.core.errors import ConfigError
+from pipeline.dynamics.equations import elastic_forces
+from pipeline.dynamics.gravity import gravity_force
+from pipeline.kinematics import assemble, closure, evaluate_tree, solve_position
+from pipeline.kinematics.failures import ClosureError, SingularConfigurationError
+from pipeline.kinematics.partition import Partition
+
+__all__ = ["ReducedCoordinates", "StaticResult", "reduced_coordinates", "reduced_static_force",
+           "static_equilibrium", "static_forces", "velocity_transform"]
+
+
+@dataclass(frozen=True)
+class ReducedCoordinates:
+    """Coordinate split of a static or linearised analysis.
+
+    Attributes
+    ----------
+    x : (k,) indices in q of the unknowns (free joint coordinates, then modal).
+    held : (h,) indices held at given values (driven coordinates).
+    partition : kinematic partition (dependent coordinates, closure rows).
+    """
+
+    x: np.ndarray
+    held: np.ndarray
+    partition: Partition
+
+
+@dataclass(frozen=True)
+class StaticResult:
+    """Outcome of :func:`static_equilibrium` (failure is a status, not an exception).
+
+    Attributes
+    ----------
+    q : (n,) last configuration (closed loops).
+    coordinates : names of the unknowns x.
+    residual : (k,) reduced force f(x) at q, N or N m.
+    stiffness : (k, k) tangent stiffness -df/dx at q.
+    Q : (n,) total static generalized force at q (gravity + elastic + elements).
+    iterations, success, message.
+    """
+
+    q: np.ndarray
+    coordinates: tuple[str, ...]
+    residual: np.ndarray
+    stiffness: np.ndarray
+    Q: np.ndarray
+    iterations: int
+    success: bool
+    message: str
+
+
+def static_forces(system, q: np.ndarray, t: float = 0.0, qd: np.ndarray | None = None):
+    """(n,) Q_gravity + Q_elastic + sum of the force elements at (q, qd = 0 by default, t)."""
+    q = np.asarray(q, dtype=float)
+    qd = np.zeros_like(q) if qd is None else np.asarray(qd, dtype=float)
+    tree = evaluate_tree(system.mechanism, q)
+    Q = gravity_force(system, tree, q) + elastic_forces(system, q, qd)[0]
+    for f in system.forces:
+        Q = Q + f.generalized_force(system, tree, q, qd, t)
+    return Q
+
+
+def reduced_coordinates(system, q: np.ndarray, hold=()) -> tuple[np.ndarray, ReducedCoordinates]:
+    """Assemble at q with the drivers and ``hold`` coordinates prescribed; split the rest.
+
+    Returns the closed q (n,) and the split. Raises ClosureError if the loops cannot close.
+    """
+    mech = system.mechanism
+    held = list(system.drivers) + [h for h in hold if h not in system.drivers]
+    a = assemble(mech, q, driven=held)
+    part = a.partition
+    x = np.concatenate([part.free, mech.modal_coordinates]).astype(int)
+    return a.q, ReducedCoordinates(x, mech.indices(held).astype(int), part)
+
+
+def velocity_transform(system, q: np.ndarray, red: ReducedCoordinates,
+                       columns: np.ndarray | None = None) -> np.ndarray:
+    """(n, k) B = dq/dx_c at closed q for the coordinates ``columns`` (default red.x).
+
+    Columns may include held coordinates (B for the actuator reactions).
+    """
+    cols = red.x if columns is None else np.asarray(columns, dtype=int)
+    part = red.partition
+    n = system.mechanism.n
+    B = np.zeros((n, cols.size))
+    B[cols, np.arange(cols.size)] = 1.0
+    if part.dependent.size:
+        J = closure(system.mechanism, q).J[part.rows]
+        B[part.dependent] = np.linalg.solve(J[:, part.dependent], -J[:, cols])
+    return B
+
+
+def _place(system, q_ref, red, xv, t):
+    """Closed q with x = xv and the drivers at t."""
+    q = np.array(q_ref, dtype=float)
+    q[red.x] = xv
+    for name, drv in system.drivers.items():
+        q[system.mechanism.index(name)] = float(drv.value(t))
+    if red.partition.dependent.size:
+        q = solve_position(system.mechanism, q, red.partition)[0]
+    return q
+
+
+def reduced_static_force(system, q_ref: np.ndarray, red: ReducedCoordinates, xv: np.ndarray,
+                         t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """f(x) = B^T Q (k,) and the closed q (n,) at x = xv (other entries from q_ref)."""
+    q = _place(system, q_ref, red, xv, t)
+    return velocity_transform(system, q, red).T @ static_forces(system, q, t), q
+
+
+def fd_steps(system, red: ReducedCoordinates, xv: np.ndarray, rel: float = 1e-6) -> np.ndarray:
+    """Central-difference steps: rel rad, rel * length scale m, rel (1 + |eta|) modal."""
+    mech = system.mechanism
+    modal = set(mech.modal_coordinates.tolist())
+    out = np.empty(xv.size)
+    for k, i in enumerate(red.x):
+        name = mech.coordinates[i]
+        if i in modal:
+            out[k] = rel * (1.0 + abs(xv[k]))
+        else:
+            out[k] = rel * (mech.length_scale if name.endswith((".d", ".x", ".y", ".z"))
+                            else 1.0)
+    return out
+
+
+def tangent(system, q_ref, red, xv, t=0.0) -> np.ndarray:
+    """(k, k) df/dx by central differences of :func:`reduced_static_force`."""
+    h = fd_steps(system, red, xv)
+    D = np.empty((xv.size, xv.size))
+    for k in range(xv.size):
+        e = np.zeros(xv.size)
+        e[k] = h[k]
+        fp = reduced_static_force(system, q_ref, red, xv + e, t)[0]
+        fm = reduced_static_force(system, q_ref, red, xv - e, t)[0]
+        D[:, k] = (fp - fm) / (2.0 * h[k])
+    return D
+
+
+def _check(system, q_guess):
+    q = np.asarray(q_guess, dtype=float)
+    if q.shape != (system.mechanism.n,) or not np.all(np.isfinite(q)):
+        raise ConfigError(f"static_equilibrium: q_guess: expected {system.mechanism.n} finite "
+                          f"values, got shape {q.shape}")
+    for f in system.forces:
+        f.validate(system)
+    return q
+
+
+def static_equilibrium(system, q_guess: np.ndarray, *, t: float = 0.0, hold=(),
+                       tol: float = 1e-10, max_iter: int = 30) -> StaticResult:
+    """Static equilibrium near q_guess (drivers at time t; ``hold``: names held fixed).
+
+    Converged when |f| <= tol * (|B^T Q_gravity| + |B^T Q_elements| + 1 N) and the
+    Newton step is below 1e-12 of the step scale. Newton steps are halved while
+    |f| grows (up to 10 times).
+
+    Raises
+    ------
+    ConfigError
+        Bad q_guess or force element.
+    """
+    q = _check(system, q_guess)
+    try:
+        q, red = reduced_coordinates(system, q, hold)
+    except (ClosureError, SingularConfigurationError) as exc:
+        return StaticResult(q, (), np.zeros(0), np.zeros((0, 0)), np.zeros_like(q), 0, False,
+                            f"cannot assemble the start: {exc}")
+    names = tuple(system.mechanism.coordinates[i] for i in red.x)
+    xv = q[red.x].copy()
+    f, q = reduced_static_force(system, q, red, xv, t)
+    D = np.zeros((xv.size, xv.size))
+    for it in range(max_iter + 1):
+        B = velocity_transform(system, q, red)
+        Qg = gravity_force(system, evaluate_tree(system.mechanism, q), q)
+        scale = np.abs(B.T @ Qg).max(initial=0) + np.abs(B.T @ static_forces(system, q, t)
+                                                           - B.T @ Qg).max(initial=0) + 1.0
+        try:
+            D = tangent(system, q, red, xv, t)
+            dx = np.linalg.solve(D, -f) if xv.size else np.zeros(0)
+        except (np.linalg.LinAlgError, ClosureError) as exc:
+            return StaticResult(q, names, f, -D, static_forces(system, q, t), it, False,
+                                f"Newton failed: {exc}")
+        if np.abs(f).max(initial=0) <= tol * scale or it == max_iter:
+            break
+        step, f_new, q_new = 1.0, None, q
+        for _ in range(10):
+            try:
+                f_new, q_new = reduced_static_force(system, q, red, xv + step * dx, t)
+            except (ClosureError, SingularConfigurationError):
+                f_new = None
+            if f_new is not None and np.linalg.norm(f_new) <= np.linalg.norm(f) * (1 + 1e-12):
+                break
+            step *= 0.5
+        if f_new is None:
+            return StaticResult(q, names, f, -D, static_forces(system, q, t), it, False,
+                                "Newton step leaves the assembly domain")
+        xv, f, q = xv + step * dx, f_new, q_new
+    ok = bool(np.abs(f).max(initial=0) <= tol * scale)
+    msg = "converged" if ok else f"not converged after {max_iter} iterations: |f| = " \
+                                 f"{np.abs(f).max():.3e}"
+    return StaticResult(q, names, f, -D, static_forces(system, q, t), it, ok, msg)
