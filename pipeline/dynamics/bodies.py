@@ -1,0 +1,98 @@
+"""BodyMass and kinematics Link from a ReducedLink (mode subset, modal or Rayleigh damping).
+
+Examples
+--------
+>>> import numpy as np
+>>> D = modal_damping(np.diag([4.0, 9.0]), np.eye(2), ratios=[0.01, 0.02], link="arm")
+>>> np.round(np.diag(D), 6).tolist()  # 2 zeta omega
+[0.04, 0.12]
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import scipy.linalg as sla
+
+from pipeline.core.errors import ConfigError
+from pipeline.dynamics.system import BodyMass
+from pipeline.kinematics.links import Link, link_from_frames
+
+__all__ = ["body_from_reduced", "link_from_reduced", "modal_damping", "select_modes"]
+
+
+def select_modes(n_modes: int, modes: Sequence[int] | None, link: str) -> np.ndarray:
+    """Indices (k,) of the kept modes (0-based; None keeps all)."""
+    if modes is None:
+        return np.arange(n_modes)
+    idx = np.asarray(list(modes), dtype=int)
+    if idx.ndim != 1 or np.any(idx < 0) or np.any(idx >= n_modes) or len(set(idx)) != idx.size:
+        raise ConfigError(f"link '{link}': modes: expected distinct indices in [0, {n_modes}), "
+                          f"got {list(modes)}")
+    return idx
+
+
+def modal_damping(K: np.ndarray, Mm: np.ndarray, *, ratios=None, rayleigh=None,
+                  link: str = "?") -> np.ndarray:
+    """(m, m) modal damping matrix.
+
+    Parameters
+    ----------
+    K, Mm : (m, m) modal stiffness and modal mass.
+    ratios : (m,) damping ratio per mode: D = Mm W diag(2 zeta omega) W^T Mm
+        with the modes W of (K, Mm) (diag(2 zeta omega) for normal modes).
+    rayleigh : (alpha, beta): D = alpha Mm + beta K (1/s, s).
+    """
+    m = K.shape[0]
+    if ratios is not None and rayleigh is not None:
+        raise ConfigError(f"link '{link}': damping: give ratios or rayleigh, not both")
+    if rayleigh is not None:
+        a, b = (float(x) for x in rayleigh)
+        if not (np.isfinite(a) and np.isfinite(b) and a >= 0 and b >= 0):
+            raise ConfigError(f"link '{link}': damping.rayleigh: expected finite (alpha, beta) "
+                              f">= 0, got {tuple(rayleigh)}")
+        return a * Mm + b * K
+    if ratios is None:
+        return np.zeros((m, m))
+    z = np.asarray(ratios, dtype=float).reshape(-1)
+    if z.size != m or not np.all(np.isfinite(z)) or np.any(z < 0):
+        raise ConfigError(f"link '{link}': damping.ratios: expected {m} finite values >= 0, "
+                          f"got {np.asarray(ratios).tolist()}")
+    w2, W = sla.eigh(K, Mm)  # W^T Mm W = 1
+    order = np.argsort(w2)
+    w, W = np.sqrt(np.clip(w2[order], 0.0, None)), W[:, order]
+    MW = Mm @ W
+    return MW @ np.diag(2.0 * z * w) @ MW.T
+
+
+def body_from_reduced(reduced, modes: Sequence[int] | None = None, *, damping_ratios=None,
+                      rayleigh=None) -> BodyMass:
+    """BodyMass of a ReducedLink keeping ``modes`` (indices, default all).
+
+    Parameters
+    ----------
+    reduced : ReducedLink.
+    modes : kept mode indices (0-based), e.g. ``range(2)``.
+    damping_ratios : (k,) ratio per kept mode, ordered by frequency.
+    rayleigh : (alpha, beta) Rayleigh coefficients (1/s, s).
+    """
+    idx = select_modes(reduced.n_modes, modes, reduced.name)
+    K = reduced.modal_stiffness[np.ix_(idx, idx)]
+    Mm = reduced.modal_mass[np.ix_(idx, idx)]
+    D = modal_damping(K, Mm, ratios=damping_ratios, rayleigh=rayleigh, link=reduced.name)
+    return BodyMass(C=np.array(reduced.C, dtype=float), Cp=reduced.Cp[idx].copy(),
+                    Cpp=reduced.Cpp[np.ix_(idx, idx)].copy(), stiffness=K.copy(), damping=D)
+
+
+class _FrameView:
+    def __init__(self, f, idx):
+        self.name, self.pose = f.name, f.pose
+        self.phi, self.psi = np.asarray(f.phi)[idx], np.asarray(f.psi)[idx]
+
+
+def link_from_reduced(reduced, modes: Sequence[int] | None = None, name: str | None = None) -> Link:
+    """Kinematics Link with the ReducedLink's frames and the kept modes' phi/psi."""
+    idx = select_modes(reduced.n_modes, modes, reduced.name)
+    frames = [_FrameView(f, idx) for f in reduced.frames]
+    return link_from_frames(name or reduced.name, frames)

@@ -1,0 +1,56 @@
+"""Velocity-dependent inertia terms h(q, q') by the R''|q''=0 route (DESIGN §4).
+
+Lagrange's equations equal sum_g m_g (dR_g/dq_i)^T R''_g, and R''_g =
+sum_j dR_g/dq_j q''_j + R''_g|q''=0, so h_i = sum_g m_g (dR_g/dq_i)^T
+R''_g|q''=0 with
+
+    R''_g|q''=0 = A''|0 (r_g + eta phi_g) + 2 A' eta' phi_g
+
+(A''|0 from the kinematics; eta'' = 0). With the invariants of one link:
+
+    h_i += tr(dA_i J A''^T) + 2 tr(dA_i Ne A'^T),  Ne = sum_c N_c eta'_c
+    h_a += tr(A N_a^T A''^T) + 2 tr(A G_a A'^T),   G_a = sum_c C''_ac eta'_c
+
+Examples
+--------
+>>> import numpy as np
+>>> from pipeline.kinematics import Joint, build_mechanism, evaluate_tree, rigid_link
+>>> from pipeline.dynamics.system import BodyMass, System
+>>> mech = build_mechanism([rigid_link("ground"), rigid_link("arm")],
+...                        [Joint("pin", "revolute", "ground", "body", "arm", "body")])
+>>> s = System(mech, {"arm": BodyMass.rigid(2.0, [1.0, 0, 0], np.eye(3))})
+>>> q, qd = np.zeros(1), np.ones(1)
+>>> float(velocity_terms(s, evaluate_tree(mech, q, qd), q, qd)[0])  # single axis: no h
+0.0
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pipeline.dynamics.mass_matrix import link_terms, mass_links
+
+__all__ = ["velocity_terms"]
+
+
+def velocity_terms(system, tree, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    """(n,) h(q, q') (N or N m per coordinate unit).
+
+    Parameters
+    ----------
+    tree : TreeState at (q, qd) with dA, Ad and Add.
+    q, qd : (n,) coordinates and rates.
+    """
+    h = np.zeros(system.mechanism.n)
+    for li, body, idx in mass_links(system):
+        A, dA, Ad, Add = tree.A[li], tree.dA[li], tree.Ad[li], tree.Add[li]
+        J, N = link_terms(body, q[idx])
+        Z = Add @ J.T
+        if idx.size:
+            etad = qd[idx]
+            Ne = np.tensordot(etad, N, axes=1)
+            Z = Z + 2.0 * Ad @ Ne.T
+            G = np.einsum("c,acij->aij", etad, body.Cpp)
+            h[idx] += np.einsum("kl,akl->a", A, Add @ N + 2.0 * Ad @ G.transpose(0, 2, 1))
+        h += np.einsum("ikl,kl->i", dA, Z)
+    return h

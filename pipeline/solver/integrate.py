@@ -1,0 +1,130 @@
+"""Time integration of the reduced equations on a fixed output grid.
+
+The first-order state is y = [q_I, q'_I, E_d]: independent coordinates, their
+rates and the energy E_d removed by the non-conservative terms (integrated
+with the motion so the energy balance closes to the integrator's tolerance).
+Any scipy ``OdeSolver`` steps it; dense output fills the output grid. A
+failure (step-size collapse, a loop that cannot close, a singular mass
+matrix) ends the run with the history so far, ``success=False`` and a message.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+import numpy as np
+
+from pipeline.core.errors import ConfigError, PipelineError
+from pipeline.core.progress import progress_bar
+from pipeline.dynamics.energy import energies
+from pipeline.dynamics.partition import partition_system, reduced_state
+from pipeline.kinematics.closure import closure_residual
+from pipeline.solver.result import ENERGY_KEYS, SimulationResult
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["run"]
+
+
+class _Rhs:
+    """Right-hand side with the last closed configuration as the Newton guess."""
+
+    def __init__(self, system, part, q_guess):
+        self.system, self.part, self.guess, self.count = system, part, q_guess, 0
+        self.nI = part.independent.size
+
+    def state(self, t, y):
+        nI = self.nI
+        st = reduced_state(self.system, self.part, y[:nI], y[nI:2 * nI], t, self.guess)
+        self.guess = st.q
+        return st
+
+    def __call__(self, t, y):
+        self.count += 1
+        st = self.state(t, y)
+        power = float(st.terms.Q_nonconservative @ st.qd)
+        return np.concatenate([y[self.nI:2 * self.nI], st.qdd_I, [-power]])
+
+
+def _check(system, q0, qd0, t_span, t_eval, rtol, atol):
+    n = system.mechanism.n
+    q0, qd0 = np.asarray(q0, dtype=float), np.asarray(qd0, dtype=float)
+    for name, v in (("q0", q0), ("qd0", qd0)):
+        if v.shape != (n,) or not np.all(np.isfinite(v)):
+            raise ConfigError(f"simulate: {name}: expected {n} finite values, got shape {v.shape}")
+    t0, t1 = (float(x) for x in t_span)
+    if not (np.isfinite(t0) and np.isfinite(t1) and t1 > t0):
+        raise ConfigError(f"simulate: t_span: expected finite (t0, t1) with t1 > t0, got {t_span}")
+    te = np.linspace(t0, t1, 101) if t_eval is None else np.asarray(t_eval, dtype=float)
+    if te.ndim != 1 or te.size == 0 or np.any(np.diff(te) <= 0) or te[0] < t0 or te[-1] > t1:
+        raise ConfigError("simulate: t_eval: expected increasing times inside t_span")
+    if not (rtol > 0 and np.all(np.asarray(atol) > 0)):
+        raise ConfigError(f"simulate: rtol, atol: expected values > 0, got {rtol}, {atol}")
+    return q0, qd0, t0, t1, te
+
+
+def _record(rhs, t, y, out):
+    st = rhs.state(t, y)
+    e = energies(rhs.system, st.terms.tree, st.q, st.qd)
+    e["dissipated"] = float(y[-1])
+    e["total"] = e["kinetic"] + e["gravity"] + e["elastic"] + e["forces"] + e["dissipated"]
+    r = closure_residual(rhs.system.mechanism, st.q)
+    out.append((t, st.q, st.qd, st.qdd, e, float(np.abs(r).max()) if r.size else 0.0))
+
+
+def _march(solver, rhs, te, y0, progress):
+    """Step ``solver`` over the grid ``te``; returns (outputs, message or None, steps)."""
+    out, steps, t_out = [], 0, 0.0
+    for k in progress_bar(range(te.size), total=te.size, description="simulating") if progress \
+            else range(te.size):
+        tk = te[k]
+        while solver.t < tk and solver.status == "running":
+            msg = solver.step()
+            steps += 1
+            if solver.status == "failed":
+                return out, f"integrator failed at t = {solver.t:.6g} s: {msg}", steps, t_out
+        s0 = time.perf_counter()
+        y = y0 if solver.t_old is None else solver.dense_output()(tk)
+        _record(rhs, tk, y, out)
+        t_out += time.perf_counter() - s0
+    return out, None, steps, t_out
+
+
+def run(system, q0, qd0, t_span, t_eval, solver_cls, name, rtol, atol, progress,
+        max_step) -> SimulationResult:
+    """Integrate (see :func:`pipeline.solver.simulate` for the parameters)."""
+    q0, qd0, t0, t1, te = _check(system, q0, qd0, t_span, t_eval, rtol, atol)
+    tic = time.perf_counter()
+    part = partition_system(system, q0)
+    rhs = _Rhs(system, part, q0)
+    I = part.independent
+    y0 = np.concatenate([q0[I], qd0[I], [0.0]])
+    out, msg, steps, t_out = [], None, 0, 0.0
+    try:
+        solver = solver_cls(rhs, t0, y0, t1, rtol=rtol, atol=atol, max_step=max_step)
+        out, msg, steps, t_out = _march(solver, rhs, te, y0, progress)
+    except (PipelineError, np.linalg.LinAlgError, FloatingPointError) as exc:
+        msg = f"stopped at t = {rhs_time(out, t0):.6g} s (last output): {exc}"
+    total = time.perf_counter() - tic
+    if msg:
+        logger.warning("simulation: %s", msg)
+    return _result(system, out, msg, steps, rhs.count, name,
+                   {"integrate": total - t_out, "output": t_out, "total": total})
+
+
+def rhs_time(out, t0):
+    return out[-1][0] if out else t0
+
+
+def _result(system, out, msg, steps, n_rhs, name, timings) -> SimulationResult:
+    n = system.mechanism.n
+    k = len(out)
+    stack = (lambda j: np.array([o[j] for o in out]).reshape(k, n))
+    en = {key: np.array([o[4][key] for o in out]) for key in ENERGY_KEYS}
+    return SimulationResult(
+        success=msg is None, status=0 if msg is None else -1,
+        message="finished" if msg is None else msg, coordinates=system.mechanism.coordinates,
+        t=np.array([o[0] for o in out]), q=stack(1), qd=stack(2), qdd=stack(3), energies=en,
+        closure_residual=np.array([o[5] for o in out]), n_steps=steps, n_rhs=n_rhs,
+        timings=timings, method=name)

@@ -1,0 +1,88 @@
+"""SimulationResult: the time history of one run, saved atomically as NPZ or CSV."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+
+import numpy as np
+
+from pipeline.core.atomic import atomic_open, save_npz_atomic
+
+__all__ = ["ENERGY_KEYS", "SimulationResult"]
+
+#: Energy histories kept per output time (J): kinetic, gravity potential,
+#: modal strain, force-element potentials, energy removed by the
+#: non-conservative terms (damping, dampers, non-conservative forces), total.
+ENERGY_KEYS = ("kinetic", "gravity", "elastic", "forces", "dissipated", "total")
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """Outcome of :func:`pipeline.solver.simulate` (partial history when it failed).
+
+    Attributes
+    ----------
+    success : True when t_span was reached.
+    status : 0 finished, -1 integration failure (step size, singular position, ...).
+    message : what happened (the failure reason with its time).
+    coordinates : names of the n coordinates.
+    t : (k,) output times reached, s.
+    q, qd, qdd : (k, n) coordinates, rates, accelerations.
+    energies : name -> (k,) J (see ``ENERGY_KEYS``).
+    closure_residual : (k,) max |closure residual| (m or rad) per output time.
+    n_steps, n_rhs : accepted steps and right-hand-side evaluations.
+    timings : seconds per stage ("integrate", "output", "total").
+    method : integrator name.
+    """
+
+    success: bool
+    status: int
+    message: str
+    coordinates: tuple[str, ...]
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    energies: Mapping[str, np.ndarray]
+    closure_residual: np.ndarray
+    n_steps: int
+    n_rhs: int
+    timings: Mapping[str, float] = field(default_factory=dict)
+    method: str = ""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "energies", MappingProxyType(dict(self.energies)))
+        object.__setattr__(self, "timings", MappingProxyType(dict(self.timings)))
+        object.__setattr__(self, "coordinates", tuple(self.coordinates))
+
+    def coordinate(self, name: str) -> np.ndarray:
+        """(k,) history of coordinate ``name``."""
+        return self.q[:, self.coordinates.index(name)]
+
+    def save_npz(self, path):
+        """Write every array and the scalars to ``path`` (.npz) atomically; returns the path."""
+        arrays = {"t": self.t, "q": self.q, "qd": self.qd, "qdd": self.qdd,
+                  "closure_residual": self.closure_residual,
+                  "coordinates": np.array(self.coordinates, dtype=str),
+                  "success": np.array(self.success), "status": np.array(self.status),
+                  "message": np.array(self.message), "method": np.array(self.method),
+                  "n_steps": np.array(self.n_steps), "n_rhs": np.array(self.n_rhs)}
+        arrays.update({f"energy_{k}": v for k, v in self.energies.items()})
+        arrays.update({f"timing_{k}": np.array(v) for k, v in self.timings.items()})
+        return save_npz_atomic(path, **arrays)
+
+    def save_csv(self, path):
+        """Write one row per output time (t, q, qd, qdd, energies, residual) atomically."""
+        cols = (["t"] + list(self.coordinates) + [f"d({c})" for c in self.coordinates]
+                + [f"dd({c})" for c in self.coordinates]
+                + [f"energy_{k}" for k in self.energies] + ["closure_residual"])
+        data = np.column_stack([self.t, self.q, self.qd, self.qdd]
+                               + [np.asarray(v) for v in self.energies.values()]
+                               + [self.closure_residual]) if self.t.size else np.zeros((0, len(cols)))
+        with atomic_open(path, "w", newline="") as fh:
+            fh.write(f"# success={self.success} status={self.status} message={self.message}\n")
+            np.savetxt(fh, data, delimiter=",", header=",".join(cols), comments="",
+                       fmt="%.17g")
+        return path
