@@ -10,7 +10,15 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 
 from pipeline.workflow.yaml_io import config_error, load_yaml
 
@@ -134,24 +142,36 @@ class LinkSpec(Strict):
     name: str = Field(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*$")
     geometry: Annotated[SolidGeometrySpec | BeamGeometrySpec, Field(discriminator="type")]
     material: MaterialSpec
-    sections: list[SectionSpec] = Field(default_factory=list, description="beam sections")
+    sections: list[SectionSpec] = Field(default_factory=list, validate_default=True,
+                                       description="beam sections, one per member")
     interfaces: list[InterfaceSpec] = Field(min_length=1)
     reference: str = Field(description="interface that is the body frame (modes clamped there)")
     markers: list[MarkerSpec] = Field(default_factory=list)
     point_masses: list[PointMassSpec] = Field(default_factory=list)
     modes: ModesSpec
 
+    @field_validator("reference")
+    @classmethod
+    def _reference_is_interface(cls, value: str, info: ValidationInfo) -> str:
+        names = [i.name for i in info.data.get("interfaces", [])]
+        if names and value not in names:
+            raise ValueError(f"expected one of the interfaces {names}, got {value!r}")
+        return value
+
+    @field_validator("sections")
+    @classmethod
+    def _beam_needs_sections(cls, value: list, info: ValidationInfo) -> list:
+        geometry = info.data.get("geometry")
+        if geometry is not None and geometry.type == "beam" and not value:
+            raise ValueError("a beam link needs at least one section")
+        return value
+
     @model_validator(mode="after")
-    def _names(self):
+    def _unique_names(self):
         names = [i.name for i in self.interfaces] + [m.name for m in self.markers]
         dup = {n for n in names if names.count(n) > 1}
         if dup:
-            raise ValueError(f"duplicate frame names {sorted(dup)}")
-        if self.reference not in [i.name for i in self.interfaces]:
-            raise ValueError(f"reference {self.reference!r} is not an interface; "
-                             f"interfaces: {[i.name for i in self.interfaces]}")
-        if self.geometry.type == "beam" and not self.sections:
-            raise ValueError("a beam link needs sections")
+            raise ValueError(f"duplicate frame names {sorted(dup)} among interfaces and markers")
         return self
 
 
