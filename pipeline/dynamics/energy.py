@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from pipeline.dynamics.gravity import gravity_potential
-from pipeline.dynamics.mass_matrix import link_terms, mass_links
+from pipeline.dynamics.mass_matrix import link_terms, mass_links, modal_block
 
 __all__ = ["elastic_energy", "energies", "kinetic_energy"]
 
@@ -38,7 +38,7 @@ def kinetic_energy(system, tree, q: np.ndarray, qd: np.ndarray) -> float:
             etad = qd[idx]
             Ne = np.tensordot(etad, N, axes=1)
             T += float(np.sum((Ad @ Ne) * A))
-            Mee = np.einsum("kl,ablp,kp->ab", A, body.Cpp, A)
+            Mee = modal_block(A, body.Cpp)
             T += 0.5 * float(etad @ Mee @ etad)
     return T
 

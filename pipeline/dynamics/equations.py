@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.dynamics.gravity import gravity_force
-from pipeline.dynamics.mass_matrix import mass_links, mass_matrix
+from pipeline.dynamics.mass_matrix import all_link_terms, mass_links, mass_matrix
 from pipeline.dynamics.velocity_terms import velocity_terms
 from pipeline.kinematics.poses import TreeState, evaluate_tree
 
@@ -92,9 +92,10 @@ def equation_terms(system, q: np.ndarray, qd: np.ndarray, t: float,
     qd = np.asarray(qd, dtype=float)
     if tree is None:
         tree = evaluate_tree(system.mechanism, q, qd, derivatives=True)
-    M = mass_matrix(system, tree, q)
-    h = velocity_terms(system, tree, q, qd)
-    Qg = gravity_force(system, tree, q)
+    links = all_link_terms(system, q)  # J(eta), N(eta) once for M, h and gravity
+    M = mass_matrix(system, tree, q, links)
+    h = velocity_terms(system, tree, q, qd, links)
+    Qg = gravity_force(system, tree, q, links)
     Qe, Qd = elastic_forces(system, q, qd)
     Qf, Qnc = _force_elements(system, tree, q, qd, t)
     return EquationTerms(M, h, Qg, Qe, Qd, Qf, Qd + Qnc, tree)

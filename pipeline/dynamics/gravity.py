@@ -21,17 +21,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.dynamics.mass_matrix import link_terms, mass_links
+from pipeline.dynamics.mass_matrix import all_link_terms
 
 __all__ = ["gravity_force", "gravity_potential"]
 
 
-def gravity_force(system, tree, q: np.ndarray) -> np.ndarray:
-    """(n,) generalised gravity force at q (tree with dA), N or N m per coordinate unit."""
+def gravity_force(system, tree, q: np.ndarray, links=None) -> np.ndarray:
+    """(n,) generalised gravity force at q (tree with dA), N or N m per coordinate unit.
+
+    ``links``: ``all_link_terms(system, q)`` (computed if None).
+    """
     g = np.append(system.gravity, 0.0)
     Q = np.zeros(system.mechanism.n)
-    for li, body, idx in mass_links(system):
-        J, _ = link_terms(body, q[idx])
+    for li, body, idx, J, _ in links if links is not None else all_link_terms(system, q):
         Q += (tree.dA[li] @ J[:, 3]) @ g
         if idx.size:
             Q[idx] += (body.Cp[:, 3, :] @ tree.A[li].T) @ g
@@ -42,7 +44,6 @@ def gravity_potential(system, tree, q: np.ndarray) -> float:
     """Gravity potential V = -sum_g m_g G . R_g (J), zero at the ground origin."""
     g = np.append(system.gravity, 0.0)
     V = 0.0
-    for li, body, idx in mass_links(system):
-        J, _ = link_terms(body, q[idx])
+    for li, _, _, J, _ in all_link_terms(system, q):
         V -= float(g @ (tree.A[li] @ J[:, 3]))
     return V

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["link_terms", "mass_links", "mass_matrix"]
+__all__ = ["all_link_terms", "link_terms", "mass_links", "mass_matrix", "modal_block"]
 
 
 def mass_links(system) -> list[tuple[int, object, np.ndarray]]:
@@ -51,17 +51,29 @@ def link_terms(body, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     body : BodyMass with m modes.
     eta : (m,) modal coordinates of the body.
     """
-    if body.n_modes == 0:
+    m = body.n_modes
+    if m == 0:
         return body.C, np.zeros((0, 4, 4))
-    Cp, Cpp = body.Cp, body.Cpp
-    N = Cp + np.einsum("b,baij->aij", eta, Cpp)
+    Cp = body.Cp
+    dN = (eta @ body.Cpp.reshape(m, 16 * m)).reshape(m, 4, 4)  # sum_b eta_b C''_ba
+    Ce = (eta @ Cp.reshape(m, 16)).reshape(4, 4)
     # J = C + sum_a eta_a (C'_a + C'_a^T) + sum_ab eta_a eta_b C''_ab
-    Ce = np.tensordot(eta, Cp, axes=1)
-    J = body.C + Ce + Ce.T + np.einsum("a,aij->ij", eta, N - Cp)
-    return J, N
+    J = body.C + Ce + Ce.T + (eta @ dN.reshape(m, 16)).reshape(4, 4)
+    return J, Cp + dN
 
 
-def mass_matrix(system, tree, q: np.ndarray) -> np.ndarray:
+def all_link_terms(system, q: np.ndarray) -> list[tuple]:
+    """(link index, body, modal indices, J, N) of every massive link at q (n,)."""
+    return [(li, body, idx, *link_terms(body, q[idx])) for li, body, idx in mass_links(system)]
+
+
+def modal_block(A: np.ndarray, Cpp: np.ndarray) -> np.ndarray:
+    """(m, m) tr(A C''_ab A^T)."""
+    m = Cpp.shape[0]
+    return np.sum((A @ Cpp.reshape(m * m, 4, 4)) * A, axis=(1, 2)).reshape(m, m)
+
+
+def mass_matrix(system, tree, q: np.ndarray, links=None) -> np.ndarray:
     """(n, n) generalised mass matrix at q.
 
     Parameters
@@ -69,6 +81,7 @@ def mass_matrix(system, tree, q: np.ndarray) -> np.ndarray:
     system : System.
     tree : TreeState at q with dA (``evaluate_tree(..., derivatives=True)``).
     q : (n,) coordinates (rad, m, modal).
+    links : :func:`all_link_terms` at q (computed if None).
 
     Returns
     -------
@@ -76,14 +89,14 @@ def mass_matrix(system, tree, q: np.ndarray) -> np.ndarray:
     """
     n = system.mechanism.n
     M = np.zeros((n, n))
-    for li, body, idx in mass_links(system):
+    for li, body, idx, J, N in links if links is not None else all_link_terms(system, q):
         A, dA = tree.A[li], tree.dA[li]
-        J, N = link_terms(body, q[idx])
-        M += np.einsum("ikp,jkp->ij", dA @ J, dA)
+        D = dA.reshape(n, 16)
+        M += (dA @ J).reshape(n, 16) @ D.T
         if idx.size:
             # tr(dA_i N_a A^T) = sum_kl dA_i[k, l] (A N_a^T)[k, l]
-            cross = np.einsum("ikl,akl->ia", dA, A @ N.transpose(0, 2, 1))
+            cross = D @ (A @ N.transpose(0, 2, 1)).reshape(-1, 16).T
             M[:, idx] += cross
             M[idx, :] += cross.T
-            M[np.ix_(idx, idx)] += np.einsum("kl,ablp,kp->ab", A, body.Cpp, A)
+            M[np.ix_(idx, idx)] += modal_block(A, body.Cpp)
     return M

@@ -28,29 +28,31 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.dynamics.mass_matrix import link_terms, mass_links
+from pipeline.dynamics.mass_matrix import all_link_terms
 
 __all__ = ["velocity_terms"]
 
 
-def velocity_terms(system, tree, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+def velocity_terms(system, tree, q: np.ndarray, qd: np.ndarray, links=None) -> np.ndarray:
     """(n,) h(q, q') (N or N m per coordinate unit).
 
     Parameters
     ----------
     tree : TreeState at (q, qd) with dA, Ad and Add.
     q, qd : (n,) coordinates and rates.
+    links : ``all_link_terms(system, q)`` (computed if None).
     """
-    h = np.zeros(system.mechanism.n)
-    for li, body, idx in mass_links(system):
+    n = system.mechanism.n
+    h = np.zeros(n)
+    for li, body, idx, J, N in links if links is not None else all_link_terms(system, q):
         A, dA, Ad, Add = tree.A[li], tree.dA[li], tree.Ad[li], tree.Add[li]
-        J, N = link_terms(body, q[idx])
         Z = Add @ J.T
         if idx.size:
+            m = idx.size
             etad = qd[idx]
-            Ne = np.tensordot(etad, N, axes=1)
+            Ne = (etad @ N.reshape(m, 16)).reshape(4, 4)
             Z = Z + 2.0 * Ad @ Ne.T
-            G = np.einsum("c,acij->aij", etad, body.Cpp)
-            h[idx] += np.einsum("kl,akl->a", A, Add @ N + 2.0 * Ad @ G.transpose(0, 2, 1))
-        h += np.einsum("ikl,kl->i", dA, Z)
+            G = (etad @ body.Cpp.transpose(1, 0, 2, 3).reshape(m, 16 * m)).reshape(m, 4, 4)
+            h[idx] += np.sum(A * (Add @ N + 2.0 * Ad @ G.transpose(0, 2, 1)), axis=(1, 2))
+        h += dA.reshape(n, 16) @ Z.reshape(16)
     return h

@@ -32,6 +32,7 @@ class _Rhs:
 
     def __init__(self, system, part, q_guess):
         self.system, self.part, self.guess, self.count = system, part, q_guess, 0
+        self.t_last = float("nan")
         self.nI = part.independent.size
 
     def state(self, t, y):
@@ -42,6 +43,7 @@ class _Rhs:
 
     def __call__(self, t, y):
         self.count += 1
+        self.t_last = t
         st = self.state(t, y)
         power = float(st.terms.Q_nonconservative @ st.qd)
         return np.concatenate([y[self.nI:2 * self.nI], st.qdd_I, [-power]])
@@ -73,9 +75,10 @@ def _record(rhs, t, y, out):
     out.append((t, st.q, st.qd, st.qdd, e, float(np.abs(r).max()) if r.size else 0.0))
 
 
-def _march(solver, rhs, te, y0, progress):
-    """Step ``solver`` over the grid ``te``; returns (outputs, message or None, steps)."""
-    out, steps, t_out = [], 0, 0.0
+def _march(solver, rhs, te, y0, progress, out):
+    """Step ``solver`` over the grid ``te``, appending to ``out``; returns
+    (message or None, steps, output seconds)."""
+    steps, t_out = 0, 0.0
     for k in progress_bar(range(te.size), total=te.size, description="simulating") if progress \
             else range(te.size):
         tk = te[k]
@@ -83,12 +86,12 @@ def _march(solver, rhs, te, y0, progress):
             msg = solver.step()
             steps += 1
             if solver.status == "failed":
-                return out, f"integrator failed at t = {solver.t:.6g} s: {msg}", steps, t_out
+                return f"integrator failed at t = {solver.t:.6g} s: {msg}", steps, t_out
         s0 = time.perf_counter()
         y = y0 if solver.t_old is None else solver.dense_output()(tk)
         _record(rhs, tk, y, out)
         t_out += time.perf_counter() - s0
-    return out, None, steps, t_out
+    return None, steps, t_out
 
 
 def run(system, q0, qd0, t_span, t_eval, solver_cls, name, rtol, atol, progress,
@@ -103,18 +106,15 @@ def run(system, q0, qd0, t_span, t_eval, solver_cls, name, rtol, atol, progress,
     out, msg, steps, t_out = [], None, 0, 0.0
     try:
         solver = solver_cls(rhs, t0, y0, t1, rtol=rtol, atol=atol, max_step=max_step)
-        out, msg, steps, t_out = _march(solver, rhs, te, y0, progress)
+        msg, steps, t_out = _march(solver, rhs, te, y0, progress, out)
     except (PipelineError, np.linalg.LinAlgError, FloatingPointError) as exc:
-        msg = f"stopped at t = {rhs_time(out, t0):.6g} s (last output): {exc}"
+        msg = (f"integration failed at t = {rhs.t_last:.6g} s (last output t = "
+               f"{out[-1][0] if out else t0:.6g} s): {exc}")
     total = time.perf_counter() - tic
     if msg:
         logger.warning("simulation: %s", msg)
     return _result(system, out, msg, steps, rhs.count, name,
                    {"integrate": total - t_out, "output": t_out, "total": total})
-
-
-def rhs_time(out, t0):
-    return out[-1][0] if out else t0
 
 
 def _result(system, out, msg, steps, n_rhs, name, timings) -> SimulationResult:

@@ -155,11 +155,14 @@ def flexible_four_bar(seed=1, n_modes=3, a=1.0, b=2.2, c=2.0, d=2.5):
     cb = cloud(rng, b, n_modes, mass=3.0)
     cr = cloud(rng, c, 0, mass=2.0)
     phiB, psiB = frame_modes(rng, n_modes)
+    phiB[:, 2] = psiB[:, :2] = 0.0  # in-plane loop frame motion: the loop stays planar
     Mm = np.einsum("g,agi,bgi->ab", cb.m, cb.phi, cb.phi)
     K = 500.0 * np.diag(np.diag(Mm)) * (1.0 + np.arange(n_modes)) ** 2
     T = translation
+    coupler = (flexible_link("coupler", {"B": (T([b, 0, 0]), phiB, psiB)}) if n_modes else
+               rigid_link("coupler", {"B": T([b, 0, 0])}))
     links = [rigid_link("ground", {"O4": T([d, 0, 0])}), rigid_link("crank", {"A": T([a, 0, 0])}),
-             flexible_link("coupler", {"B": (T([b, 0, 0]), phiB, psiB)}),
+             coupler,
              rigid_link("rocker", {"B": T([c, 0, 0])})]
     th2, th3, th4 = 1.2, 0.35, 1.5  # approximate assembly
     joints = [Joint("J2", "revolute", "ground", "body", "crank", "body", (th2,)),
