@@ -1,0 +1,54 @@
+"""The package's dependency rules (STYLE.md §4), checked on the import statements."""
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1] / "pipeline"
+
+#: third-party module -> the only subpackages allowed to import it
+ONLY_IN = {
+    "gmsh": ("meshing",),
+    "pyvista": ("post",),
+    "pydantic": ("workflow",),
+    "yaml": ("workflow",),
+}
+#: subpackage -> pipeline subpackages it must not import (the solver side stays FE-free)
+FORBIDDEN = {
+    "kinematics": ("meshing", "fem", "modes", "invariants", "dynamics", "post", "workflow"),
+    "dynamics": ("meshing", "fem", "modes", "post", "workflow"),
+    "invariants": ("post", "workflow"),
+    "fem": ("modes", "invariants", "kinematics", "dynamics", "post", "workflow"),
+    "meshing": ("fem", "modes", "invariants", "kinematics", "dynamics", "post", "workflow"),
+    "core": ("meshing", "fem", "modes", "invariants", "kinematics", "dynamics", "post",
+             "workflow"),
+}
+FE_LIBS = ("skfem", "gmsh")
+
+
+def _imports(path: Path):
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            yield from (a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            yield node.module
+
+
+def _modules():
+    return sorted(p for p in ROOT.rglob("*.py"))
+
+
+@pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_module_respects_layers(path):
+    sub = path.relative_to(ROOT).parts[0] if len(path.relative_to(ROOT).parts) > 1 else ""
+    for name in _imports(path):
+        top = name.split(".")[0]
+        if top in ONLY_IN:
+            assert sub in ONLY_IN[top], f"{path.name} imports {top} outside {ONLY_IN[top]}"
+        if sub in ("kinematics", "dynamics", "solver"):
+            assert top not in FE_LIBS, f"{path.name}: the solver side imports {top}"
+        if top == "pipeline" and "." in name:
+            target = name.split(".")[1]
+            assert target not in FORBIDDEN.get(sub, ()), \
+                f"{sub}/{path.name} imports pipeline.{target} against the layering"
