@@ -145,7 +145,7 @@ def reduced_static_force(system, q_ref: np.ndarray, red: ReducedCoordinates, xv:
 
 
 def fd_steps(system, red: ReducedCoordinates, xv: np.ndarray, rel: float = 1e-6) -> np.ndarray:
-    """Central-difference steps: rel rad, rel * length scale m, rel (1 + |eta|) modal."""
+    """Central-difference steps: rel max(1, |x|, length scale) for joints, rel (1 + |eta|) modal."""
     mech = system.mechanism
     modal = set(mech.modal_coordinates.tolist())
     out = np.empty(xv.size)
@@ -154,8 +154,8 @@ def fd_steps(system, red: ReducedCoordinates, xv: np.ndarray, rel: float = 1e-6)
         if i in modal:
             out[k] = rel * (1.0 + abs(xv[k]))
         else:
-            out[k] = rel * (mech.length_scale if name.endswith((".d", ".x", ".y", ".z"))
-                            else 1.0)
+            out[k] = rel * max(1.0, abs(xv[k]), mech.length_scale if name.endswith(
+                (".d", ".x", ".y", ".z")) else 1.0)
     return out
 
 
