@@ -24,7 +24,7 @@ Examples
 >>> s = System(mech, {"arm": BodyMass.rigid(1.0, [1.0, 0, 0], np.eye(3))}, [0, -9.81, 0],
 ...            forces=[JointSpringDamper("k", "pin.theta", stiffness=100.0)])
 >>> r = static_equilibrium(s, np.zeros(1))
->>> r.success, abs(100.0 * r.q[0] + 9.81 * np.cos(r.q[0])) < 1e-9
+>>> r.success, bool(abs(100.0 * r.q[0] + 9.81 * np.cos(r.q[0])) < 1e-9)
 (True, True)
 """
 
@@ -182,13 +182,35 @@ def _check(system, q_guess):
     return q
 
 
+def _scale(system, q, red, t) -> float:
+    """Force scale of the convergence test: |B^T Q_gravity| + |B^T Q_rest| + 1 N."""
+    B = velocity_transform(system, q, red)
+    Qg = gravity_force(system, evaluate_tree(system.mechanism, q), q)
+    rest = static_forces(system, q, t) - Qg
+    return np.abs(B.T @ Qg).max(initial=0) + np.abs(B.T @ rest).max(initial=0) + 1.0
+
+
+def _line_search(system, q, red, xv, dx, f, t):
+    """Halve the Newton step while |f| grows; (step, f, q) or None if it leaves the domain."""
+    step = 1.0
+    for _ in range(10):
+        try:
+            f_new, q_new = reduced_static_force(system, q, red, xv + step * dx, t)
+        except (ClosureError, SingularConfigurationError):
+            f_new = None
+        if f_new is not None and np.linalg.norm(f_new) <= np.linalg.norm(f) * (1 + 1e-12):
+            return step, f_new, q_new
+        step *= 0.5
+    return None if f_new is None else (step * 2.0, f_new, q_new)
+
+
 def static_equilibrium(system, q_guess: np.ndarray, *, t: float = 0.0, hold=(),
                        tol: float = 1e-10, max_iter: int = 30) -> StaticResult:
     """Static equilibrium near q_guess (drivers at time t; ``hold``: names held fixed).
 
-    Converged when |f| <= tol * (|B^T Q_gravity| + |B^T Q_elements| + 1 N) and the
-    Newton step is below 1e-12 of the step scale. Newton steps are halved while
-    |f| grows (up to 10 times).
+    Converged when |f| <= tol * (|B^T Q_gravity| + |B^T Q_elements| + 1 N).
+    Newton steps are halved while |f| grows (up to 10 times). Failure (no
+    assembly, singular tangent, no convergence) is a status on the result.
 
     Raises
     ------
@@ -204,34 +226,25 @@ def static_equilibrium(system, q_guess: np.ndarray, *, t: float = 0.0, hold=(),
     names = tuple(system.mechanism.coordinates[i] for i in red.x)
     xv = q[red.x].copy()
     f, q = reduced_static_force(system, q, red, xv, t)
-    D = np.zeros((xv.size, xv.size))
+    D, msg = np.zeros((xv.size, xv.size)), None
     for it in range(max_iter + 1):
-        B = velocity_transform(system, q, red)
-        Qg = gravity_force(system, evaluate_tree(system.mechanism, q), q)
-        scale = np.abs(B.T @ Qg).max(initial=0) + np.abs(B.T @ static_forces(system, q, t)
-                                                           - B.T @ Qg).max(initial=0) + 1.0
+        scale = _scale(system, q, red, t)
         try:
             D = tangent(system, q, red, xv, t)
             dx = np.linalg.solve(D, -f) if xv.size else np.zeros(0)
-        except (np.linalg.LinAlgError, ClosureError) as exc:
-            return StaticResult(q, names, f, -D, static_forces(system, q, t), it, False,
-                                f"Newton failed: {exc}")
+        except (np.linalg.LinAlgError, ClosureError, SingularConfigurationError) as exc:
+            msg = f"Newton failed: {exc}"
+            break
         if np.abs(f).max(initial=0) <= tol * scale or it == max_iter:
             break
-        step, f_new, q_new = 1.0, None, q
-        for _ in range(10):
-            try:
-                f_new, q_new = reduced_static_force(system, q, red, xv + step * dx, t)
-            except (ClosureError, SingularConfigurationError):
-                f_new = None
-            if f_new is not None and np.linalg.norm(f_new) <= np.linalg.norm(f) * (1 + 1e-12):
-                break
-            step *= 0.5
-        if f_new is None:
-            return StaticResult(q, names, f, -D, static_forces(system, q, t), it, False,
-                                "Newton step leaves the assembly domain")
-        xv, f, q = xv + step * dx, f_new, q_new
-    ok = bool(np.abs(f).max(initial=0) <= tol * scale)
-    msg = "converged" if ok else f"not converged after {max_iter} iterations: |f| = " \
-                                 f"{np.abs(f).max():.3e}"
+        found = _line_search(system, q, red, xv, dx, f, t)
+        if found is None:
+            msg = "Newton step leaves the assembly domain"
+            break
+        step, f, q = found
+        xv = xv + step * dx
+    ok = msg is None and bool(np.abs(f).max(initial=0) <= tol * scale)
+    if msg is None:
+        msg = "converged" if ok else (f"not converged after {max_iter} iterations: |f| = "
+                                      f"{np.abs(f).max():.3e}")
     return StaticResult(q, names, f, -D, static_forces(system, q, t), it, ok, msg)

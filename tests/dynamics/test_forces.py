@@ -185,3 +185,19 @@ def test_registry_and_bad_input_name_the_element():
         TableSpringDamper("tb", M1, M3, deflection=(0.0, 0.0), force=(1.0, 2.0))
     with pytest.raises(ConfigError, match="'j': coordinate: coordinate 'x.d' does not exist"):
         JointForce("j", "x.d").validate(SYSTEM)
+
+
+def test_damped_spring_splits_its_non_conservative_part():
+    """Q(q, q') = -dV/dq + Q_nc with Q_nc the damper alone (-c l' dl/dq, l' by FD in time)."""
+    s = SpringDamper("s", M1, M3, stiffness=2e3, free_length=0.3, damping=40.0, preload=15.0)
+    js = JointSpringDamper("js", "J2.theta", stiffness=40.0, damping=3.0)
+    assert not s.conservative and not js.conservative
+    for q, qd, t in STATES:
+        tree = evaluate_tree(MECH, q)
+        Q = s.generalized_force(SYSTEM, tree, q, qd, t)
+        Qnc = s.nonconservative_force(SYSTEM, tree, q, qd, t)
+        assert np.abs(Q - Qnc + _grad_V(s, q)).max() <= 1e-7 * np.abs(Q).max()
+        ldot = rate(lambda x: np.linalg.norm(point(M3, x) - point(M1, x)), q, qd)
+        assert Qnc @ qd == pytest.approx(-40.0 * ldot**2, rel=1e-8)
+        Qj = js.nonconservative_force(SYSTEM, tree, q, qd, t)
+        assert Qj[1] == -3.0 * qd[1] and np.count_nonzero(Qj) == 1
