@@ -89,3 +89,43 @@ def eb_cantilever(length: float, EI: float, rho_A: float, n_modes: int, n_quad: 
     phi_tip = np.array([[0.0, t, 0.0] for t in tips])
     psi_tip = np.array([[0.0, 0.0, s] for s in slopes_tip])
     return body, phi_tip, psi_tip, omega
+
+
+BEAM_YAML = """\
+name: beam
+geometry:
+  type: beam
+  points: [[0, 0, 0], [{L}, 0, 0]]
+  vertex_names: [root, tip]
+  element_size: {h}
+material: {{E: {E}, nu: 0.3, rho: {rho}}}
+sections:
+  - {{A: {A}, Iy: {I}, Iz: {I}, J: {J}, members: [0]}}
+interfaces:
+  - name: root
+    selector: {{type: nearest, point: [0, 0, 0]}}
+    z_axis: [0, 0, 1]
+  - name: tip
+    selector: {{type: nearest, point: [{L}, 0, 0]}}
+    z_axis: [0, 0, 1]
+reference: root
+modes: {{count: {m}}}
+"""
+
+#: Uniform steel beam of the FE tests: L m, E Pa, rho kg/m^3, A m^2, I m^4.
+BEAM = {"L": 2.0, "E": 2.1e11, "rho": 7850.0, "A": 1.0e-3, "I": 2.0e-7}
+
+
+def fe_beam(folder: Path, n_modes: int = 8, element_size: float = 0.05):
+    """Real reduced beam link (gmsh line mesh -> skfem Hermite beam -> clamped modes at
+    'root' -> invariants) through the link-spec route: (ReducedLink, BodyMass, Link)."""
+    from pipeline.dynamics.bodies import body_from_reduced, link_from_reduced
+    from pipeline.invariants.reduce import reduce_link
+    from pipeline.workflow.link_build import link_request
+    from pipeline.workflow.link_spec import load_link_spec
+
+    path = folder / "beam.yaml"
+    path.write_text(BEAM_YAML.format(h=element_size, m=n_modes, J=2 * BEAM["I"], **BEAM))
+    request, _ = link_request(load_link_spec(path), folder)
+    reduced = reduce_link(request)
+    return reduced, body_from_reduced(reduced), link_from_reduced(reduced)
