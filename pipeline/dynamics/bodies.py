@@ -86,13 +86,46 @@ def body_from_reduced(reduced, modes: Sequence[int] | None = None, *, damping_ra
 
 
 class _FrameView:
-    def __init__(self, f, idx):
-        self.name, self.pose = f.name, f.pose
-        self.phi, self.psi = np.asarray(f.phi)[idx], np.asarray(f.psi)[idx]
+    def __init__(self, name, pose, phi, psi):
+        self.name, self.pose, self.phi, self.psi = name, pose, phi, psi
 
 
-def link_from_reduced(reduced, modes: Sequence[int] | None = None, name: str | None = None) -> Link:
-    """Kinematics Link with the ReducedLink's frames and the kept modes' phi/psi."""
+def _attached(reduced, idx, new: str, base: str, local) -> _FrameView:
+    """Frame rigidly attached to frame ``base`` at ``local`` (4, 4) in its axes.
+
+    First order, like the shape matrix: the new origin moves by
+    phi + psi x (R0 d) with d the local offset; the small rotation is psi.
+    """
+    try:
+        f = reduced.frame(base)
+    except KeyError as exc:
+        raise ConfigError(f"link '{reduced.name}': frames.{new}: {exc.args[0]}") from None
+    local = np.asarray(local, dtype=float)
+    if local.shape != (4, 4):
+        raise ConfigError(f"link '{reduced.name}': frames.{new}: expected a (4, 4) pose, "
+                          f"got shape {local.shape}")
+    pose = f.pose @ local
+    psi = np.asarray(f.psi)[idx]
+    phi = np.asarray(f.phi)[idx] + np.cross(psi, f.pose[:3, :3] @ local[:3, 3])
+    return _FrameView(new, pose, phi, psi)
+
+
+def link_from_reduced(reduced, modes: Sequence[int] | None = None, name: str | None = None,
+                      frames=None) -> Link:
+    """Kinematics Link with the ReducedLink's frames and the kept modes' phi/psi.
+
+    Parameters
+    ----------
+    reduced : ReducedLink.
+    modes : kept mode indices (default all).
+    name : link name (default the reduced link's).
+    frames : optional ``{new_name: (existing_frame, local pose (4, 4))}``: extra
+        frames rigidly attached to existing ones (e.g. a pin axis across a
+        bar whose interface frame has z along the bar).
+    """
     idx = select_modes(reduced.n_modes, modes, reduced.name)
-    frames = [_FrameView(f, idx) for f in reduced.frames]
-    return link_from_frames(name or reduced.name, frames)
+    views = [_FrameView(f.name, f.pose, np.asarray(f.phi)[idx], np.asarray(f.psi)[idx])
+             for f in reduced.frames]
+    views += [_attached(reduced, idx, k, base, local)
+              for k, (base, local) in (frames or {}).items()]
+    return link_from_frames(name or reduced.name, views)

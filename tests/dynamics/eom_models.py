@@ -181,3 +181,37 @@ def flexible_four_bar(seed=1, n_modes=3, a=1.0, b=2.2, c=2.0, d=2.5):
         return [points(Ac, cc, eta[:0]), points(Ab, cb, eta), points(Ar, cr, eta[:0])]
 
     return Model(system, positions, [cc.m, cb.m, cr.m])
+
+
+def reduced_bar_pendulum(folder, n_modes=4, zeta=None, L=1.0):
+    """Double pendulum of two real reduced Al bars (gmsh + scikit-fem, P2 tets).
+
+    Each bar (L x 0.03 x 0.015 m) has its body frame at the root interface,
+    z along the bar; pin frames with z across the bar are attached at root and
+    tip, so both joints turn about global z and the bars start horizontal
+    (along -x) under gravity -y. Returns (system, reduced link).
+    """
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from link_samples import write_bar
+
+    from pipeline.dynamics.bodies import body_from_reduced, link_from_reduced
+    from pipeline.kinematics.rotations import homogeneous, inverse, rot_y
+    from pipeline.workflow.link_build import reduce_spec
+    from pipeline.workflow.link_spec import load_link_spec
+
+    spec = write_bar(folder, L=L, b=0.03, h=0.015, size=0.015, modes=n_modes)
+    red = reduce_spec(load_link_spec(spec), folder, folder / "links")[0]
+    pin = homogeneous(rot_y(np.pi / 2))
+    tip_pin = inverse(red.frame("tip").pose) @ homogeneous(rot_y(np.pi / 2), [0.0, 0.0, L])
+    extra = {"pin": ("root", pin), "tip_pin": ("tip", tip_pin)}
+    zr = None if zeta is None else [zeta] * n_modes
+    links = [rigid_link("ground")] + [link_from_reduced(red, name=nm, frames=extra)
+                                      for nm in ("bar1", "bar2")]
+    mech = build_mechanism(links, [
+        Joint("j1", "revolute", "ground", "body", "bar1", "pin"),
+        Joint("j2", "revolute", "bar1", "tip_pin", "bar2", "pin")])
+    bodies = {nm: body_from_reduced(red, damping_ratios=zr) for nm in ("bar1", "bar2")}
+    return System(mech, bodies, gravity=[0.0, -9.81, 0.0]), red

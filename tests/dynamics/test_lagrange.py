@@ -70,7 +70,7 @@ def test_mass_matrix_is_hessian_of_kinetic_energy(name):
     q, _, _ = _random_state(rng, model)
     n = q.size
     E = np.eye(n)
-    T = lambda v: _T(model, q, v)  # noqa: E731
+    T = lambda v: _T(model, q, v)
     Hs = np.array([[T(E[i] + E[j]) - T(E[i]) - T(E[j]) + T(0 * E[0]) for j in range(n)]
                    for i in range(n)])
     M = equation_terms(model.system, q, np.zeros(n), 0.0).M

@@ -21,7 +21,7 @@ from pipeline.kinematics.rotations import translation
 from pipeline.solver import simulate
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "kinematics"))
-from kin_models import slider_crank  # noqa: E402
+from kin_models import slider_crank
 
 TOL = 1e-12
 T_END = 2.0
@@ -40,7 +40,8 @@ def _integrate_reference(M_f, F_f, y0, te, n):
 
 
 # ------------------------------------------------------------------ double pendulum
-P1 = dict(L1=1.0, m1=2.0, c1=(0.45, 0.03), I1=0.21, m2=1.3, c2=(0.38, -0.02), I2=0.09)
+P1 = {"L1": 1.0, "m1": 2.0, "c1": (0.45, 0.03), "I1": 0.21, "m2": 1.3, "c2": (0.38, -0.02),
+      "I2": 0.09}
 
 
 def _sympy_double_pendulum():
@@ -91,7 +92,8 @@ def test_rigid_double_pendulum_matches_sympy_kane():
 
 
 # ------------------------------------------------------------------ slider-crank
-SC = dict(r=0.3, l=1.0, e=0.1, m1=4.0, c1=0.02, I1=0.8, m2=1.5, c2=0.4, I2=0.12, m3=2.5)
+SC = {"r": 0.3, "l": 1.0, "e": 0.1, "m1": 4.0, "c1": 0.02, "I1": 0.8, "m2": 1.5, "c2": 0.4,
+      "I2": 0.12, "m3": 2.5}
 
 
 def _sympy_slider_crank():
@@ -103,7 +105,7 @@ def _sympy_slider_crank():
     g1 = SC["c1"] * sp.Matrix([sp.cos(th), sp.sin(th)])
     g2 = A + SC["c2"] * sp.Matrix([sp.cos(phi), sp.sin(phi)])
     x3 = sp.Matrix([r * sp.cos(th) + l * sp.cos(phi), e])
-    v = lambda p: p.diff(t)  # noqa: E731
+    v = lambda p: p.diff(t)
     T = (SC["m1"] * v(g1).dot(v(g1)) + SC["I1"] * th.diff(t) ** 2
          + SC["m2"] * v(g2).dot(v(g2)) + SC["I2"] * phi.diff(t) ** 2
          + SC["m3"] * v(x3).dot(v(x3))) / 2

@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "dynamics"))
-from eom_models import flexible_double_pendulum, flexible_four_bar  # noqa: E402
+from eom_models import flexible_double_pendulum, flexible_four_bar
 
-from pipeline.core.errors import ConfigError, SolverError  # noqa: E402
-from pipeline.dynamics import System  # noqa: E402
-from pipeline.kinematics import assemble  # noqa: E402
-from pipeline.solver import simulate  # noqa: E402
+from pipeline.core.errors import ConfigError, SolverError
+from pipeline.dynamics import System
+from pipeline.kinematics import assemble
+from pipeline.solver import simulate
 
 
 def _rigid_four_bar():
