@@ -41,17 +41,25 @@ import numpy as np
 
 from pipeline.core.errors import ConfigError
 from pipeline.dynamics.equations import equations
+from pipeline.dynamics.mass_matrix import link_terms
 from pipeline.dynamics.statics import (
     reduced_coordinates,
     static_equilibrium,
     static_forces,
     velocity_transform,
 )
-from pipeline.kinematics import closure, solve_acceleration, solve_position, solve_velocity
+from pipeline.kinematics import (
+    closure,
+    evaluate_tree,
+    solve_acceleration,
+    solve_position,
+    solve_velocity,
+)
 from pipeline.kinematics.failures import ClosureError, SingularConfigurationError
 from pipeline.kinematics.partition import select_partition
+from pipeline.kinematics.poses import step_local
 
-__all__ = ["KinetostaticResult", "kinetostatics"]
+__all__ = ["JointReactions", "KinetostaticResult", "joint_reactions", "kinetostatics"]
 
 
 @dataclass(frozen=True)
@@ -65,6 +73,7 @@ class KinetostaticResult:
     forces : (T, c) generalized force each must apply, N or N m.
     inertia : whether M q'' + h was included.
     success, message.
+    reactions : per time a :class:`JointReactions` (empty unless asked for).
     """
 
     t: np.ndarray
@@ -76,6 +85,7 @@ class KinetostaticResult:
     inertia: bool
     success: bool
     message: str
+    reactions: tuple = ()
 
     def force(self, name: str) -> np.ndarray:
         """(T,) force history of prescribed coordinate ``name``."""
@@ -122,7 +132,7 @@ def _repartition(system, q, red, idx):
 
 
 def kinetostatics(system, t: np.ndarray, q_guess: np.ndarray, *, inertia: bool = False,
-                  hold=None) -> KinetostaticResult:
+                  hold=None, reactions: bool = False) -> KinetostaticResult:
     """Actuator forces along the drivers' motion at times t (T,) s.
 
     Parameters
@@ -131,6 +141,7 @@ def kinetostatics(system, t: np.ndarray, q_guess: np.ndarray, *, inertia: bool =
     inertia : include M q'' + h (else quasi-static).
     hold : names of coordinates held fixed besides the drivers (default: every
         free joint coordinate); their holding forces are reported too.
+    reactions : also compute the joint reactions (:func:`joint_reactions`) at every time.
 
     Raises
     ------
@@ -152,7 +163,7 @@ def kinetostatics(system, t: np.ndarray, q_guess: np.ndarray, *, inertia: bool =
     q, red = reduced_coordinates(system, q, names)
     Q = np.full((t.size, 3, mech.n), np.nan)
     F = np.full((t.size, idx.size), np.nan)
-    ok, msg = True, "completed"
+    ok, msg, reac = True, "completed", []
     for k, tk in enumerate(t):
         try:
             try:
@@ -166,6 +177,10 @@ def kinetostatics(system, t: np.ndarray, q_guess: np.ndarray, *, inertia: bool =
                 F[k] = Bc.T @ (M @ qdd - rhs)
             else:
                 F[k] = -Bc.T @ static_forces(system, qk, tk)
+            if reactions:
+                z = np.zeros(mech.n)
+                reac.append(joint_reactions(system, qk, qd if inertia else z,
+                                            qdd if inertia else z, tk, dict(zip(names, F[k]))))
         except (ClosureError, SingularConfigurationError, np.linalg.LinAlgError) as exc:
             ok, msg = False, f"stopped at t = {tk:.6g} s: {exc}"
             break
@@ -173,4 +188,114 @@ def kinetostatics(system, t: np.ndarray, q_guess: np.ndarray, *, inertia: bool =
         Q[k] = qk, qd, qdd
     n_ok = k + 1 if ok else k
     return KinetostaticResult(t[:n_ok], Q[:n_ok, 0], Q[:n_ok, 1], Q[:n_ok, 2], tuple(names),
-                              F[:n_ok], inertia, ok, msg)
+                              F[:n_ok], inertia, ok, msg, tuple(reac[:n_ok]))
+
+
+# ----------------------------------------------------------------------------- reactions
+@dataclass(frozen=True)
+class JointReactions:
+    """Joint reactions at one state: the wrench the parent link exerts on the child link
+    at the joint point (the child frame's origin), ground axes.
+
+    Attributes
+    ----------
+    joints : joint names.  force : (J, 3) N.  moment : (J, 3) N m about the joint point.
+    residual : max |Newton-Euler + joint-axis residual| of the solve (N, N m); near
+        zero when the actuator forces balance the loads and inertia of every body.
+    """
+
+    joints: tuple[str, ...]
+    force: np.ndarray
+    moment: np.ndarray
+    residual: float
+
+
+def _vee(W: np.ndarray) -> np.ndarray:
+    return np.array([W[2, 1], W[0, 2], W[1, 0]])
+
+
+def _body_wrench(system, tree, q, qd, qdd, li, body) -> np.ndarray:
+    """(6,) gravity minus inertia wrench of one body about the ground origin.
+
+    With X = int rho R'' R_bar^T = A'' J A^T + 2 A' Nd A^T + A Ndd A^T
+    (Nd = sum eta'_a N_a^T): momentum rate X[:3, 3], angular momentum rate
+    vee(X - X^T)[:3, :3] (DESIGN §2 invariants).
+    """
+    idx = system.mechanism.modal_index[li]
+    J, N = link_terms(body, q[idx])
+    A, Ad = tree.A[li], tree.Ad[li]
+    Add = np.tensordot(qdd, tree.dA[li], axes=1) + tree.Add[li]
+    Nd = np.tensordot(qd[idx], N.transpose(0, 2, 1), axes=1) if idx.size else 0.0 * J
+    Ndd = np.tensordot(qdd[idx], N.transpose(0, 2, 1), axes=1) if idx.size else 0.0 * J
+    X = Add @ J @ A.T + 2.0 * Ad @ Nd @ A.T + A @ Ndd @ A.T
+    s = (A @ J[:, 3])[:3]
+    g = system.gravity
+    return np.concatenate([J[3, 3] * g - X[:3, 3], np.cross(s, g) - _vee(X[:3, :3] - X[:3, :3].T)])
+
+
+def _joint_axes(system, tree, q, j):
+    """Joint point p (3,) and unit twists (k, 6) [v, w] of the joint's variables."""
+    mech = system.mechanism
+    joint, jidx = mech.joints[j], mech.joint_index[j]
+    step = mech.marker(joint.parent, joint.parent_frame)
+    Pp = tree.A[step.frm] @ step_local(step, q, None, need_d=False)[0]
+    Pc = Pp @ joint.kind.motion.transform(q[jidx])
+    dP = Pp @ joint.kind.motion.derivatives(q[jidx]) if jidx.size else np.zeros((0, 4, 4))
+    xi = np.array([np.concatenate([d[:3, 3], _vee(d[:3, :3] @ Pc[:3, :3].T)]) for d in dP])
+    return Pc[:3, 3], xi.reshape(-1, 6)
+
+
+def _external(system, tree, q, qd, t, W, Q):
+    """Add the force elements' loads to the body wrenches W (L, 6); joint elements to Q."""
+    mech = system.mechanism
+    for f in system.forces:
+        if hasattr(f, "coordinate"):
+            Q += f.generalized_force(system, tree, q, qd, t)
+            continue
+        for ld in f.loads(system, tree, q, qd, t):
+            li = mech.link_index(ld.link)
+            W[li, :3] += ld.force
+            W[li, 3:] += np.cross(ld.point, ld.force) + ld.torque
+
+
+def joint_reactions(system, q, qd, qdd, t: float, actuators: dict[str, float]) -> JointReactions:
+    """Reactions of every joint from Newton-Euler of every moving link.
+
+    Unknowns: one wrench per joint; equations: the six balance equations of each
+    moving link (loads, gravity, inertia) and, per joint variable, the transmitted
+    generalized force (joint force elements + ``actuators[name]``). Least squares
+    (minimum norm: components a planar loop leaves indeterminate come out as the
+    smallest ones).
+    """
+    mech = system.mechanism
+    tree = evaluate_tree(mech, q, qd, derivatives=True)
+    L, nj = len(mech.links), len(mech.joints)
+    W, Qj = np.zeros((L, 6)), np.zeros(mech.n)
+    for name, body in system.bodies.items():
+        li = mech.link_index(name)
+        W[li] += _body_wrench(system, tree, q, qd, qdd, li, body)
+    _external(system, tree, q, qd, t, W, Qj)
+    for name, value in actuators.items():
+        Qj[mech.index(name)] += value
+    rows_b = np.zeros((6 * L, 6 * nj))
+    axis_rows, axis_rhs = [], []
+    for j, joint in enumerate(mech.joints):
+        p, xi = _joint_axes(system, tree, q, j)
+        S = np.eye(6)
+        S[3:, :3] = np.array([[0, -p[2], p[1]], [p[2], 0, -p[0]], [-p[1], p[0], 0]])
+        for link, sign in ((joint.child, 1.0), (joint.parent, -1.0)):
+            li = mech.link_index(link)
+            rows_b[6 * li:6 * li + 6, 6 * j:6 * j + 6] += sign * S
+        for k, i in enumerate(mech.joint_index[j]):
+            row = np.zeros(6 * nj)
+            row[6 * j:6 * j + 6] = xi[k]  # power f . v_p + n . w
+            axis_rows.append(row)
+            axis_rhs.append(Qj[i])
+    keep = np.ones(6 * L, bool)
+    keep[6 * mech.link_index(mech.ground):6 * mech.link_index(mech.ground) + 6] = False
+    A = np.vstack([rows_b[keep]] + ([np.array(axis_rows)] if axis_rows else []))
+    b = np.concatenate([-W.reshape(-1)[keep], np.array(axis_rhs)])
+    w = np.linalg.lstsq(A, b, rcond=None)[0]
+    res = float(np.abs(A @ w - b).max(initial=0.0))
+    w = w.reshape(nj, 6)
+    return JointReactions(tuple(j.name for j in mech.joints), w[:, :3], w[:, 3:], res)

@@ -201,3 +201,19 @@ def test_damped_spring_splits_its_non_conservative_part():
         assert Qnc @ qd == pytest.approx(-40.0 * ldot**2, rel=1e-8)
         Qj = js.nonconservative_force(SYSTEM, tree, q, qd, t)
         assert Qj[1] == -3.0 * qd[1] and np.count_nonzero(Qj) == 1
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_physical_loads_listed_for_reactions_match_the_reference_loads(case):
+    element, loads = CASES[case]
+    for q, qd, t in STATES:
+        tree = evaluate_tree(MECH, q)
+        got = sorted(element.loads(SYSTEM, tree, q, qd, t), key=lambda ld: ld.link)
+        ref = sorted(loads(q, qd, t), key=lambda r: MECH.marker(*r[0]).frm)
+        ref = sorted(ref, key=lambda r: r[0][0])
+        assert [g.link for g in got] == [r[0][0] for r in ref]
+        for g, (marker, offset, F, Tq) in zip(got, ref):
+            off = (0.0, 0.0, 0.0) if offset is None else offset
+            assert np.allclose(g.point, point(marker, q, off), atol=1e-14)
+            assert np.allclose(g.force, np.zeros(3) if F is None else F, rtol=1e-12, atol=1e-9)
+            assert np.allclose(g.torque, np.zeros(3) if Tq is None else Tq, rtol=1e-12)

@@ -20,7 +20,11 @@ Contract of a :class:`ForceElement` subclass (thesis eqs. 4.148-4.174, DESIGN §
    ``nonconservative_force(...)`` is the part of Q that is not -dV/dq (the
    damper of a spring-damper, a time history, a follower load); its power is
    the non-conservative power. ``conservative`` is True when that part is zero.
-5. Bad descriptions raise ConfigError naming the element and the field in
+5. ``loads(system, tree, q, qd, t)`` lists the physical loads as
+   :class:`Load` (link, global point, force, torque) for joint reactions;
+   elements acting on a joint coordinate set ``coordinate`` instead and
+   return no loads (their force is transmitted through the joint).
+6. Bad descriptions raise ConfigError naming the element and the field in
    ``validate(system)`` (called by the analyses before they start).
 
 Subclasses implement ``_force(system, tree, q, qd, t)``; the public methods
@@ -39,7 +43,7 @@ import numpy as np
 from pipeline.core.errors import ConfigError
 from pipeline.kinematics.poses import step_local, step_value
 
-__all__ = ["ForceElement", "MarkerPoint", "check_coordinate", "check_marker", "marker_point",
+__all__ = ["ForceElement", "Load", "MarkerPoint", "check_coordinate", "check_marker", "marker_point",
            "marker_pose", "marker_twist", "unit_jacobian"]
 
 
@@ -63,6 +67,21 @@ class MarkerPoint:
     def velocity(self, qd: np.ndarray) -> np.ndarray:
         """(3,) velocity of the point, m/s, for rates qd (n,)."""
         return qd @ self.dR
+
+
+@dataclass(frozen=True)
+class Load:
+    """A physical load on ``link``: force (3,) N through point (3,) m plus torque (3,) N m,
+    ground axes."""
+
+    link: str
+    point: np.ndarray
+    force: np.ndarray
+    torque: np.ndarray
+
+
+def point_load(link: str, point, force) -> Load:
+    return Load(link, np.asarray(point, float), np.asarray(force, float), np.zeros(3))
 
 
 def marker_pose(system, link: str, frame: str, tree, q: np.ndarray) -> np.ndarray:
@@ -160,6 +179,10 @@ class ForceElement:
     def power(self, system, tree, q, qd, t: float) -> float:
         """Power delivered to the system, W (Q . qd)."""
         return float(self.generalized_force(system, tree, q, qd, t) @ np.asarray(qd, float))
+
+    def loads(self, system, tree, q, qd, t: float) -> tuple[Load, ...]:
+        """Physical loads (ground axes) at (q, qd, t); see the contract, rule 5."""
+        raise NotImplementedError(f"force element '{self.name}' does not list its loads")
 
     def _force(self, system, tree, q, qd, t):  # pragma: no cover - abstract
         raise NotImplementedError

@@ -22,10 +22,12 @@ from pipeline.core.errors import ConfigError
 from pipeline.core.validate import validate_array
 from pipeline.dynamics.forces.base import (
     ForceElement,
+    Load,
     check_coordinate,
     check_marker,
     marker_point,
     marker_twist,
+    point_load,
     unit_jacobian,
 )
 
@@ -78,9 +80,16 @@ class PointForce(ForceElement):
     def _point(self, system, tree, q):
         return marker_point(system, *self.marker, tree, q, np.asarray(self.offset, float))
 
+    def _vector(self, p, t):
+        return history_value(self.history, t, self.name) * np.asarray(self.force, float)
+
     def _force(self, system, tree, q, qd, t):
-        F = history_value(self.history, t, self.name) * np.asarray(self.force, float)
-        return self._point(system, tree, q).dR @ F
+        p = self._point(system, tree, q)
+        return p.dR @ self._vector(p, t)
+
+    def loads(self, system, tree, q, qd, t):
+        p = self._point(system, tree, q)
+        return (point_load(self.marker[0], p.R, self._vector(p, t)),)
 
     def potential_energy(self, system, tree, q) -> float:
         if not self.conservative:
@@ -96,10 +105,8 @@ class FollowerForce(PointForce):
     def conservative(self) -> bool:
         return False
 
-    def _force(self, system, tree, q, qd, t):
-        p = self._point(system, tree, q)
-        F = history_value(self.history, t, self.name) * (p.P[:3, :3] @ np.asarray(self.force))
-        return p.dR @ F
+    def _vector(self, p, t):
+        return history_value(self.history, t, self.name) * (p.P[:3, :3] @ np.asarray(self.force))
 
     def potential_energy(self, system, tree, q) -> float:
         return 0.0
@@ -133,6 +140,13 @@ class LineForce(ForceElement):
         f = history_value(self.history, t, self.name) * float(self.force)
         return f * self._line(system, tree, q)[2]
 
+    def loads(self, system, tree, q, qd, t):
+        a = marker_point(system, *self.marker_a, tree, q)
+        b = marker_point(system, *self.marker_b, tree, q)
+        u = unit_jacobian(a, b, self.name)[1]
+        f = history_value(self.history, t, self.name) * float(self.force) * u
+        return (point_load(self.marker_a[0], a.R, -f), point_load(self.marker_b[0], b.R, f))
+
     def potential_energy(self, system, tree, q) -> float:
         if not self.conservative:
             return 0.0
@@ -156,12 +170,17 @@ class Torque(ForceElement):
     def validate(self, system) -> None:
         check_marker(system, self.marker, self.name, "marker")
 
+    def _vector(self, p, t):
+        T = history_value(self.history, t, self.name) * np.asarray(self.torque, float)
+        return p.P[:3, :3] @ T if self.follower else T
+
     def _force(self, system, tree, q, qd, t):
         p = marker_point(system, *self.marker, tree, q)
-        T = history_value(self.history, t, self.name) * np.asarray(self.torque, float)
-        if self.follower:
-            T = p.P[:3, :3] @ T
-        return marker_twist(p) @ T
+        return marker_twist(p) @ self._vector(p, t)
+
+    def loads(self, system, tree, q, qd, t):
+        p = marker_point(system, *self.marker, tree, q)
+        return (Load(self.marker[0], p.R, np.zeros(3), self._vector(p, t)),)
 
 
 @dataclass(frozen=True)
@@ -179,6 +198,9 @@ class JointForce(ForceElement):
 
     def validate(self, system) -> None:
         check_coordinate(system, self.coordinate, self.name)
+
+    def loads(self, system, tree, q, qd, t):
+        return ()  # transmitted through the joint of ``coordinate``
 
     def _force(self, system, tree, q, qd, t):
         Q = np.zeros_like(q)

@@ -25,6 +25,7 @@ from pipeline.dynamics.forces.base import (
     check_coordinate,
     check_marker,
     marker_point,
+    point_load,
     unit_jacobian,
 )
 
@@ -94,6 +95,13 @@ class SpringDamper(ForceElement):
 
     def potential_energy(self, system, tree, q) -> float:
         return self.energy(self._geometry(system, tree, q)[0])
+
+    def loads(self, system, tree, q, qd, t):
+        a = marker_point(system, *self.marker_a, tree, q)
+        b = marker_point(system, *self.marker_b, tree, q)
+        length, u, dl = unit_jacobian(a, b, self.name)
+        f = self.tension(length, float(dl @ qd)) * u  # tension pulls a toward b
+        return (point_load(self.marker_a[0], a.R, f), point_load(self.marker_b[0], b.R, -f))
 
 
 @dataclass(frozen=True)
@@ -168,6 +176,9 @@ class JointSpringDamper(ForceElement):
 
     def validate(self, system) -> None:
         check_coordinate(system, self.coordinate, self.name)
+
+    def loads(self, system, tree, q, qd, t):
+        return ()  # transmitted through the joint of ``coordinate``
 
     def _force(self, system, tree, q, qd, t):
         i = system.mechanism.index(self.coordinate)
