@@ -47,7 +47,7 @@ def test_loader_actuator_forces_balance_newton_euler_of_every_body(loader_dyn):
     """The planar machine's in-plane equations are overdetermined by its 3 DOF: the
     residual vanishes only if the Lagrange actuator forces match the bodies'
     Newton-Euler loads (weights, bucket load, inertia)."""
-    system, res = loader_dyn
+    _, res = loader_dyn
     assert res.success
     scale = np.abs(res.forces).max()
     for r in res.reactions:
