@@ -62,6 +62,8 @@ class ReducedState:
     """Full state reconstructed from the independent one, with the reduced dynamics.
 
     q, qd, qdd : (n,); qdd_I : (nI,); B : (n, nI); terms : EquationTerms at (q, qd).
+    driver_forces : (p,) force (N) or torque (N m) each driver applies along its
+        coordinate to impose the prescribed motion.
     """
 
     q: np.ndarray
@@ -70,6 +72,7 @@ class ReducedState:
     qdd_I: np.ndarray
     B: np.ndarray
     terms: EquationTerms
+    driver_forces: np.ndarray
 
 
 def partition_system(system, q: np.ndarray) -> DynamicPartition:
@@ -102,22 +105,26 @@ def complete_position(system, part: DynamicPartition, q_I: np.ndarray, t: float,
     return q, c.J
 
 
-def velocity_transform(system, part: DynamicPartition, J: np.ndarray,
-                       t: float) -> tuple[np.ndarray, np.ndarray]:
-    """B (n, nI) and b (n,) with q' = B q'_I + b (b: driver rates through the loops)."""
-    n, I = system.mechanism.n, part.independent
+def velocity_transform(system, part: DynamicPartition, J: np.ndarray | None,
+                       t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """B (n, nI), B_p (n, p) and b (n,) with q' = B q'_I + b, b = B_p (driver rates).
+
+    B_p [i, k] = dq_i / dq_p_k: how the k-th driven coordinate moves the others
+    through the loops (its transpose maps the equations onto the driver force).
+    """
+    n, I, P = system.mechanism.n, part.independent, part.driven
     B = np.zeros((n, I.size))
     B[I, np.arange(I.size)] = 1.0
-    b = np.zeros(n)
-    for i, d in zip(part.driven, part.drivers):
-        b[i] = d.rate(t)
+    Bp = np.zeros((n, P.size))
+    Bp[P, np.arange(P.size)] = 1.0
     dep = part.kin.dependent
     if dep.size:
         R = J[part.kin.rows]
-        lu = np.linalg.inv(R[:, dep])
-        B[dep] = -lu @ R[:, I]
-        b[dep] = -lu @ (R @ b)
-    return B, b
+        inv = np.linalg.inv(R[:, dep])
+        B[dep] = -inv @ R[:, I]
+        Bp[dep] = -inv @ R[:, P]
+    rates = np.array([d.rate(t) for d in part.drivers], dtype=float)
+    return B, Bp, Bp @ rates
 
 
 def reduced_state(system, part: DynamicPartition, q_I: np.ndarray, qd_I: np.ndarray, t: float,
@@ -125,7 +132,7 @@ def reduced_state(system, part: DynamicPartition, q_I: np.ndarray, qd_I: np.ndar
     """Close the loops, build q', and solve the reduced equations for q''_I."""
     mech = system.mechanism
     q, J = complete_position(system, part, q_I, t, q_guess)
-    B, b = velocity_transform(system, part, J, t)
+    B, Bp, b = velocity_transform(system, part, J, t)
     qd = B @ qd_I + b
     c = np.zeros(mech.n)
     for i, d in zip(part.driven, part.drivers):
@@ -142,4 +149,7 @@ def reduced_state(system, part: DynamicPartition, q_I: np.ndarray, qd_I: np.ndar
     M = terms.M
     Mr = B.T @ M @ B
     qdd_I = np.linalg.solve(Mr, B.T @ (terms.rhs - M @ c))
-    return ReducedState(q, qd, B @ qdd_I + c, qdd_I, B, terms)
+    qdd = B @ qdd_I + c
+    # driver forces: the drivers' generalized reactions, B_p^T (M q'' - rhs)
+    lam = Bp.T @ (M @ qdd - terms.rhs)
+    return ReducedState(q, qd, qdd, qdd_I, B, terms, lam)

@@ -1,8 +1,9 @@
 """Time integration of the reduced equations on a fixed output grid.
 
-The first-order state is y = [q_I, q'_I, E_d]: independent coordinates, their
-rates and the energy E_d removed by the non-conservative terms (integrated
-with the motion so the energy balance closes to the integrator's tolerance).
+The first-order state is y = [q_I, q'_I, W_d, E_d]: independent coordinates,
+their rates, the work W_d done by the drivers and the energy E_d removed by
+the non-conservative terms (integrated with the motion so the energy balance
+T + V + E_d - W_d = const closes to the integrator's tolerance).
 Any scipy ``OdeSolver`` steps it; dense output fills the output grid. A
 failure (step-size collapse, a loop that cannot close, a singular mass
 matrix) ends the run with the history so far, ``success=False`` and a message.
@@ -46,7 +47,8 @@ class _Rhs:
         self.t_last = t
         st = self.state(t, y)
         power = float(st.terms.Q_nonconservative @ st.qd)
-        return np.concatenate([y[self.nI:2 * self.nI], st.qdd_I, [-power]])
+        p_drivers = float(st.driver_forces @ st.qd[self.part.driven])
+        return np.concatenate([y[self.nI:2 * self.nI], st.qdd_I, [p_drivers, -power]])
 
 
 def _check(system, q0, qd0, t_span, t_eval, rtol, atol):
@@ -69,10 +71,12 @@ def _check(system, q0, qd0, t_span, t_eval, rtol, atol):
 def _record(rhs, t, y, out):
     st = rhs.state(t, y)
     e = energies(rhs.system, st.terms.tree, st.q, st.qd)
-    e["dissipated"] = float(y[-1])
-    e["total"] = e["kinetic"] + e["gravity"] + e["elastic"] + e["forces"] + e["dissipated"]
+    e["dissipated"], e["driver_work"] = float(y[-1]), float(y[-2])
+    e["total"] = (e["kinetic"] + e["gravity"] + e["elastic"] + e["forces"] + e["dissipated"]
+                  - e["driver_work"])
     r = closure_residual(rhs.system.mechanism, st.q)
-    out.append((t, st.q, st.qd, st.qdd, e, float(np.abs(r).max()) if r.size else 0.0))
+    out.append((t, st.q, st.qd, st.qdd, e, float(np.abs(r).max()) if r.size else 0.0,
+                st.driver_forces))
 
 
 def _march(solver, rhs, te, y0, progress, out):
@@ -102,7 +106,7 @@ def run(system, q0, qd0, t_span, t_eval, solver_cls, name, rtol, atol, progress,
     part = partition_system(system, q0)
     rhs = _Rhs(system, part, q0)
     I = part.independent
-    y0 = np.concatenate([q0[I], qd0[I], [0.0]])
+    y0 = np.concatenate([q0[I], qd0[I], [0.0, 0.0]])
     out, msg, steps, t_out = [], None, 0, 0.0
     try:
         solver = solver_cls(rhs, t0, y0, t1, rtol=rtol, atol=atol, max_step=max_step)
@@ -113,12 +117,13 @@ def run(system, q0, qd0, t_span, t_eval, solver_cls, name, rtol, atol, progress,
     total = time.perf_counter() - tic
     if msg:
         logger.warning("simulation: %s", msg)
-    return _result(system, out, msg, steps, rhs.count, name,
+    return _result(system, part, out, msg, steps, rhs.count, name,
                    {"integrate": total - t_out, "output": t_out, "total": total})
 
 
-def _result(system, out, msg, steps, n_rhs, name, timings) -> SimulationResult:
+def _result(system, part, out, msg, steps, n_rhs, name, timings) -> SimulationResult:
     n = system.mechanism.n
+    names = system.mechanism.coordinates
     k = len(out)
     stack = (lambda j: np.array([o[j] for o in out]).reshape(k, n))
     en = {key: np.array([o[4][key] for o in out]) for key in ENERGY_KEYS}
@@ -127,4 +132,5 @@ def _result(system, out, msg, steps, n_rhs, name, timings) -> SimulationResult:
         message="finished" if msg is None else msg, coordinates=system.mechanism.coordinates,
         t=np.array([o[0] for o in out]), q=stack(1), qd=stack(2), qdd=stack(3), energies=en,
         closure_residual=np.array([o[5] for o in out]), n_steps=steps, n_rhs=n_rhs,
-        timings=timings, method=name)
+        timings=timings, method=name, driven=tuple(names[i] for i in part.driven),
+        driver_forces=np.array([o[6] for o in out]).reshape(k, part.driven.size))

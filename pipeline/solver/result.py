@@ -14,8 +14,10 @@ __all__ = ["ENERGY_KEYS", "SimulationResult"]
 
 #: Energy histories kept per output time (J): kinetic, gravity potential,
 #: modal strain, force-element potentials, energy removed by the
-#: non-conservative terms (damping, dampers, non-conservative forces), total.
-ENERGY_KEYS = ("kinetic", "gravity", "elastic", "forces", "dissipated", "total")
+#: non-conservative terms (damping, dampers, non-conservative forces), work
+#: done by the drivers, and total = T + V + dissipated - driver_work
+#: (constant up to the integration error).
+ENERGY_KEYS = ("kinetic", "gravity", "elastic", "forces", "dissipated", "driver_work", "total")
 
 
 @dataclass(frozen=True)
@@ -35,6 +37,9 @@ class SimulationResult:
     n_steps, n_rhs : accepted steps and right-hand-side evaluations.
     timings : seconds per stage ("integrate", "output", "total").
     method : integrator name.
+    driven : names of the driven coordinates.
+    driver_forces : (k, p) force (N) / torque (N m) each driver applies along
+        its coordinate (e.g. a prescribed-length cylinder's force).
     """
 
     success: bool
@@ -51,11 +56,14 @@ class SimulationResult:
     n_rhs: int
     timings: Mapping[str, float] = field(default_factory=dict)
     method: str = ""
+    driven: tuple[str, ...] = ()
+    driver_forces: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "energies", MappingProxyType(dict(self.energies)))
         object.__setattr__(self, "timings", MappingProxyType(dict(self.timings)))
         object.__setattr__(self, "coordinates", tuple(self.coordinates))
+        object.__setattr__(self, "driven", tuple(self.driven))
 
     def coordinate(self, name: str) -> np.ndarray:
         """(k,) history of coordinate ``name``."""
@@ -68,7 +76,9 @@ class SimulationResult:
                   "coordinates": np.array(self.coordinates, dtype=str),
                   "success": np.array(self.success), "status": np.array(self.status),
                   "message": np.array(self.message), "method": np.array(self.method),
-                  "n_steps": np.array(self.n_steps), "n_rhs": np.array(self.n_rhs)}
+                  "n_steps": np.array(self.n_steps), "n_rhs": np.array(self.n_rhs),
+                  "driven": np.array(self.driven, dtype=str),
+                  "driver_forces": self.driver_forces}
         arrays.update({f"energy_{k}": v for k, v in self.energies.items()})
         arrays.update({f"timing_{k}": np.array(v) for k, v in self.timings.items()})
         return save_npz_atomic(path, **arrays)
@@ -77,10 +87,12 @@ class SimulationResult:
         """Write one row per output time (t, q, qd, qdd, energies, residual) atomically."""
         cols = (["t"] + list(self.coordinates) + [f"d({c})" for c in self.coordinates]
                 + [f"dd({c})" for c in self.coordinates]
-                + [f"energy_{k}" for k in self.energies] + ["closure_residual"])
+                + [f"energy_{k}" for k in self.energies] + ["closure_residual"]
+                + [f"force({c})" for c in self.driven])
         data = np.column_stack([self.t, self.q, self.qd, self.qdd]
                                + [np.asarray(v) for v in self.energies.values()]
-                               + [self.closure_residual]) if self.t.size else np.zeros((0, len(cols)))
+                               + [self.closure_residual, self.driver_forces.reshape(
+                                   self.t.size, -1)]) if self.t.size else np.zeros((0, len(cols)))
         with atomic_open(path, "w", newline="") as fh:
             fh.write(f"# success={self.success} status={self.status} message={self.message}\n")
             np.savetxt(fh, data, delimiter=",", header=",".join(cols), comments="",

@@ -101,5 +101,5 @@ def test_result_files_round_trip(tmp_path):
     assert list(d["coordinates"]) == list(r.coordinates) and bool(d["success"])
     r.save_csv(tmp_path / "run.csv")
     rows = np.loadtxt(tmp_path / "run.csv", delimiter=",", skiprows=2)
-    assert rows.shape == (5, 1 + 3 * s.mechanism.n + 6 + 1)
+    assert rows.shape == (5, 1 + 3 * s.mechanism.n + 7 + 1)
     assert np.allclose(rows[:, 1:1 + s.mechanism.n], r.q, rtol=0, atol=0)
