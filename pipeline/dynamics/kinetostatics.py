@@ -131,6 +131,28 @@ def _repartition(system, q, red, idx):
     return type(red)(red.x, red.held, part)
 
 
+def _closed_state(system, q, red, tk, names, idx):
+    """(q, q', q'') at tk and the partition used (re-selected once if the old one fails)."""
+    try:
+        return _state(system, q.copy(), red, tk, names, idx), red
+    except (ClosureError, SingularConfigurationError):
+        red = _repartition(system, q, red, idx)
+        return _state(system, q.copy(), red, tk, names, idx), red
+
+
+def _actuation(system, q, qd, qdd, t, red, idx, names, inertia, reactions):
+    """Forces (c,) of the prescribed coordinates and, if asked, the joint reactions."""
+    Bc = velocity_transform(system, q, red, idx)
+    if inertia:
+        M, rhs = equations(system, q, qd, t)
+        F = Bc.T @ (M @ qdd - rhs)
+    else:
+        F = -Bc.T @ static_forces(system, q, t)
+        qd = qdd = np.zeros(system.mechanism.n)
+    r = joint_reactions(system, q, qd, qdd, t, dict(zip(names, F))) if reactions else None
+    return F, r
+
+
 def kinetostatics(system, t: np.ndarray, q_guess: np.ndarray, *, inertia: bool = False,
                   hold=None, reactions: bool = False) -> KinetostaticResult:
     """Actuator forces along the drivers' motion at times t (T,) s.
@@ -166,24 +188,12 @@ def kinetostatics(system, t: np.ndarray, q_guess: np.ndarray, *, inertia: bool =
     ok, msg, reac = True, "completed", []
     for k, tk in enumerate(t):
         try:
-            try:
-                qk, qd, qdd = _state(system, q.copy(), red, tk, names, idx)
-            except (ClosureError, SingularConfigurationError):
-                red = _repartition(system, q, red, idx)
-                qk, qd, qdd = _state(system, q.copy(), red, tk, names, idx)
-            Bc = velocity_transform(system, qk, red, idx)
-            if inertia:
-                M, rhs = equations(system, qk, qd, tk)
-                F[k] = Bc.T @ (M @ qdd - rhs)
-            else:
-                F[k] = -Bc.T @ static_forces(system, qk, tk)
-            if reactions:
-                z = np.zeros(mech.n)
-                reac.append(joint_reactions(system, qk, qd if inertia else z,
-                                            qdd if inertia else z, tk, dict(zip(names, F[k]))))
+            (qk, qd, qdd), red = _closed_state(system, q, red, tk, names, idx)
+            F[k], r = _actuation(system, qk, qd, qdd, tk, red, idx, names, inertia, reactions)
         except (ClosureError, SingularConfigurationError, np.linalg.LinAlgError) as exc:
             ok, msg = False, f"stopped at t = {tk:.6g} s: {exc}"
             break
+        reac += [r] if r is not None else []
         q = qk
         Q[k] = qk, qd, qdd
     n_ok = k + 1 if ok else k

@@ -122,3 +122,27 @@ def test_flexible_beam_on_hinge_spring_matches_euler_bernoulli():
     print("\nhinged beam (6 clamped modes + hinge): rel. errors", np.round(err, 7))
     assert np.all(err > -1e-9)  # Rayleigh-Ritz: from above
     assert np.all(err < 1e-2)
+
+
+def test_closed_loop_slider_crank_on_a_spring_closed_form():
+    """Crank inertia I_c, slider mass m_s, spring k on the slider at its free length:
+    omega^2 = k x'^2 / (I_c + m_s x'^2), x' = dx/dtheta of the loop (closed form)."""
+    from kin_models import slider_crank
+
+    from pipeline.kinematics import assemble
+
+    r, l, e, I_c, m_s, k = 0.3, 1.0, 0.1, 0.02, 2.5, 3.0e3
+    mech = slider_crank(r, l, e, theta0=0.9)
+    q = assemble(mech).q
+    x0 = q[mech.index("slide.d")]
+    system = System(mech, {"crank": BodyMass.rigid(1.0, [0, 0, 0], np.diag([I_c] * 3)),
+                           "slider": BodyMass.rigid(m_s, [0, 0, 0], np.eye(3) * 1e-3)},
+                    [0.0, 0.0, 0.0],
+                    forces=[SpringDamper("k", ("ground", "rail"), ("slider", "body"),
+                                         stiffness=k, free_length=x0)])
+    modes = vibration_modes(system, q)
+    th = q[mech.index("crank.theta")]
+    xp = -r * np.sin(th) + (e - r * np.sin(th)) * r * np.cos(th) / np.sqrt(
+        l**2 - (e - r * np.sin(th)) ** 2)
+    assert modes.model.coordinates == ("crank.theta",) or modes.omega.size == 1
+    assert modes.omega[0] == pytest.approx(np.sqrt(k * xp**2 / (I_c + m_s * xp**2)), rel=1e-7)
