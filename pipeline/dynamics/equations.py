@@ -68,12 +68,16 @@ def elastic_forces(system, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, n
 
 
 def _force_elements(system, tree, q, qd, t):
+    """Q of every force element and its non-conservative part (not -dV/dq)."""
     n = system.mechanism.n
     Qf, Qnc = np.zeros(n), np.zeros(n)
     for f in system.forces:
         Q = np.asarray(f.generalized_force(system, tree, q, qd, t), dtype=float)
         Qf += Q
-        if not getattr(f, "conservative", False):  # contract: Q = -dV/dq otherwise
+        if hasattr(f, "nonconservative_force"):  # ForceElement contract (forces/base.py)
+            if not f.conservative:
+                Qnc += np.asarray(f.nonconservative_force(system, tree, q, qd, t), dtype=float)
+        elif not getattr(f, "conservative", False):  # duck-typed element: all of Q
             Qnc += Q
     return Qf, Qnc
 
