@@ -73,6 +73,7 @@ class StaticResult:
     stiffness : (k, k) tangent stiffness -df/dx at q.
     Q : (n,) total static generalized force at q (gravity + elastic + elements).
     iterations, success, message.
+    reduced : the coordinate split used (None if the start could not be assembled).
     """
 
     q: np.ndarray
@@ -83,6 +84,7 @@ class StaticResult:
     iterations: int
     success: bool
     message: str
+    reduced: ReducedCoordinates | None = None
 
 
 def static_forces(system, q: np.ndarray, t: float = 0.0, qd: np.ndarray | None = None):
@@ -247,4 +249,4 @@ def static_equilibrium(system, q_guess: np.ndarray, *, t: float = 0.0, hold=(),
     if msg is None:
         msg = "converged" if ok else (f"not converged after {max_iter} iterations: |f| = "
                                       f"{np.abs(f).max():.3e}")
-    return StaticResult(q, names, f, -D, static_forces(system, q, t), it, ok, msg)
+    return StaticResult(q, names, f, -D, static_forces(system, q, t), it, ok, msg, red)

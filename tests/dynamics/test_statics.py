@@ -106,3 +106,45 @@ def test_closed_loop_statics_slider_crank_spring_and_crank_weight():
 def test_bad_guess_is_a_config_error():
     with pytest.raises(ConfigError, match="q_guess: expected 1 finite values"):
         static_equilibrium(pendulum(1.0, 0.0), np.array([np.nan]))
+
+
+def test_flexible_closed_loop_equilibrium_is_a_stationary_minimum_of_the_potential():
+    """Four-bar with a flexible coupler (3 EB modes), link weights and a crank spring:
+    at the equilibrium the total potential (gravity + strain + spring), evaluated on
+    closed configurations, is stationary in every independent coordinate and the
+    tangent stiffness is its Hessian (positive definite)."""
+    from kin_models import four_bar
+
+    from pipeline.dynamics.energy import elastic_energy
+    from pipeline.dynamics.gravity import gravity_potential
+    from pipeline.kinematics import evaluate_tree, solve_position
+
+    a, b, c, d = 0.4, 1.2, 0.9, 1.0
+    body, phi, psi, _ = eb_cantilever(b, 400.0, 8.0, 3)
+    mech = four_bar(a, b, c, d, flexible=(phi, psi))
+    spring = JointSpringDamper("k", "J2.theta", stiffness=60.0, free_value=0.6)
+    system = System(mech, {"crank": rigid_bar(2.0, a), "coupler": body,
+                           "rocker": rigid_bar(4.0, c)}, [0.0, -G, 0.0], forces=[spring])
+    res = static_equilibrium(system, mech.q_initial)
+    assert res.success, res.message
+    q_eq, red = res.q, res.reduced
+    assert len(red.x) == 4  # one free joint angle + three modal coordinates
+
+    def V(x):
+        q = q_eq.copy()
+        q[red.x] = x
+        q = solve_position(mech, q, red.partition)[0]
+        tree = evaluate_tree(mech, q, derivatives=False)
+        return (gravity_potential(system, tree, q) + elastic_energy(system, q)
+                + spring.potential_energy(system, tree, q))
+
+    x0, h = q_eq[red.x], 1e-4
+    E = np.eye(4) * h
+    grad = np.array([(V(x0 + e) - V(x0 - e)) / (2 * h) for e in E])
+    hess = np.array([[(V(x0 + ei + ej) - V(x0 + ei - ej) - V(x0 - ei + ej) + V(x0 - ei - ej))
+                      / (4 * h * h) for ej in E] for ei in E])
+    force_scale = 9.81 * (2.0 * a + 4.0 * c + 8.0 * b)
+    assert np.abs(grad).max() <= 1e-7 * force_scale
+    assert np.all(np.linalg.eigvalsh(0.5 * (hess + hess.T)) > 0)
+    np.testing.assert_allclose(res.stiffness, hess, rtol=1e-4, atol=1e-4 * np.abs(hess).max())
+    assert np.abs(res.q[mech.modal_coordinates]).max() > 1e-4  # the coupler does deflect
