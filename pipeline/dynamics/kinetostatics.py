@@ -178,6 +178,11 @@ def kinetostatics(system, t: np.ndarray, q_guess: np.ndarray, *, inertia: bool =
         raise ConfigError(f"kinetostatics: t: expected finite times (T,), got {t.shape}")
     mech = system.mechanism
     q = np.array(q_guess, dtype=float)
+    if q.shape != (mech.n,) or not np.all(np.isfinite(q)):
+        raise ConfigError(f"kinetostatics: q_guess: expected {mech.n} finite values, got "
+                          f"shape {q.shape}")
+    for f in system.forces:
+        f.validate(system)
     for name, drv in system.drivers.items():
         q[mech.index(name)] = drv.value(t[0])
     names = _held(system, q, hold)

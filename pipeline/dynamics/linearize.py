@@ -105,6 +105,8 @@ def linearize(system, q_eq: np.ndarray, *, t: float = 0.0, hold=()) -> LinearMod
     if q_eq.shape != (system.mechanism.n,) or not np.all(np.isfinite(q_eq)):
         raise ConfigError(f"linearize: q_eq: expected {system.mechanism.n} finite values, "
                           f"got shape {q_eq.shape}")
+    for f in system.forces:
+        f.validate(system)
     q, red = reduced_coordinates(system, q_eq, hold)
     if red.x.size == 0:
         raise ConfigError("linearize: no independent coordinates left (everything driven or "

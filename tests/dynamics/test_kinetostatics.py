@@ -234,3 +234,31 @@ def test_kinetostatics_needs_drivers():
     system = System(slider_crank(R, L, E), {})
     with pytest.raises(ConfigError, match="system.drivers: expected at least one"):
         kinetostatics(system, [0.0], system.mechanism.q_initial)
+
+
+def test_flexible_beam_on_driven_hinge_holding_torque_includes_its_sag():
+    """EB beam (6 modes) on a driven hinge at angle theta, gravity -y: quasi-static modal
+    deflection w(x) = -q cos(theta) x^2 (6L^2 - 4Lx + x^2) / 24EI (linear theory), so
+    the holding torque is rho A g (L^2/2 cos(theta) + sin(theta) q cos(theta) L^5 / 20EI)."""
+    from dyn2_models import eb_cantilever
+
+    from pipeline.kinematics import Joint, build_mechanism, flexible_link, rigid_link
+    from pipeline.kinematics.drivers import Ramp
+    from pipeline.kinematics.rotations import translation
+
+    Lb, EI, rho_A, g = 2.0, 3.0e3, 12.0, 9.81
+    body, phi, psi, _ = eb_cantilever(Lb, EI, rho_A, 6)
+    beam = flexible_link("beam", {"tip": (translation([Lb, 0, 0]), phi, psi)})
+    mech = build_mechanism([rigid_link("ground"), beam],
+                           [Joint("hinge", "revolute", "ground", "body", "beam", "body")])
+    system = System(mech, {"beam": body}, [0.0, -g, 0.0],
+                    drivers={"hinge.theta": Ramp(0.0, 0.5, -0.3)})
+    t = np.array([0.0, 1.0, 2.0])
+    res = kinetostatics(system, t, np.zeros(mech.n))
+    assert res.success and res.names == ("hinge.theta",)
+    th = -0.3 + 0.5 * t
+    q = rho_A * g
+    ref = q * (Lb**2 / 2 * np.cos(th) + np.sin(th) * q * np.cos(th) * Lb**5 / (20 * EI))
+    sag = ref - q * Lb**2 / 2 * np.cos(th)
+    np.testing.assert_allclose(res.force("hinge.theta"), ref, rtol=1e-6)
+    assert np.all(np.abs(sag[[0, 2]]) > 1e-3 * np.abs(ref[[0, 2]]))  # the sag matters

@@ -146,3 +146,15 @@ def test_closed_loop_slider_crank_on_a_spring_closed_form():
         l**2 - (e - r * np.sin(th)) ** 2)
     assert modes.model.coordinates == ("crank.theta",) or modes.omega.size == 1
     assert modes.omega[0] == pytest.approx(np.sqrt(k * xp**2 / (I_c + m_s * xp**2)), rel=1e-7)
+
+
+def test_linearize_rejects_bad_input():
+    from pipeline.core.errors import ConfigError
+
+    system = chain(1.0, 1.0, 10.0, 10.0)
+    with pytest.raises(ConfigError, match="q_eq: expected 2 finite values"):
+        vibration_modes(system, np.array([1.0]))
+    bad = System(system.mechanism, system.bodies, [0, 0, 0],
+                 forces=[SpringDamper("x", ("m1", "nope"), ("m2", "body"), stiffness=1.0)])
+    with pytest.raises(ConfigError, match="frame 'nope' does not exist"):
+        vibration_modes(bad, np.array([1.0, 0.7]))
