@@ -233,11 +233,11 @@ def static_equilibrium(system, q_guess: np.ndarray, *, t: float = 0.0, hold=(),
         scale = _scale(system, q, red, t)
         try:
             D = tangent(system, q, red, xv, t)
-            dx = np.linalg.solve(D, -f) if xv.size else np.zeros(0)
+            if np.abs(f).max(initial=0) <= tol * scale or it == max_iter:
+                break  # converged (a neutral direction, e.g. a free slide, is fine here)
+            dx = np.linalg.solve(D, -f)
         except (np.linalg.LinAlgError, ClosureError, SingularConfigurationError) as exc:
             msg = f"Newton failed: {exc}"
-            break
-        if np.abs(f).max(initial=0) <= tol * scale or it == max_iter:
             break
         found = _line_search(system, q, red, xv, dx, f, t)
         if found is None:

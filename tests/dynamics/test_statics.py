@@ -148,3 +148,30 @@ def test_flexible_closed_loop_equilibrium_is_a_stationary_minimum_of_the_potenti
     assert np.all(np.linalg.eigvalsh(0.5 * (hess + hess.T)) > 0)
     np.testing.assert_allclose(res.stiffness, hess, rtol=1e-4, atol=1e-4 * np.abs(hess).max())
     assert np.abs(res.q[mech.modal_coordinates]).max() > 1e-4  # the coupler does deflect
+
+
+def test_loader_held_by_a_force_cylinder_is_in_equilibrium_where_kinetostatics_says():
+    """Loader (weights + bucket load): replace the lift driver by a force-driven cylinder
+    with the kinetostatic lift force at t; statics from a displaced start returns to the
+    kinetostatic configuration (the chassis slide is neutral under vertical loads)."""
+    from test_kinetostatics import _loader
+
+    from pipeline.dynamics.forces import ForceCylinder
+    from pipeline.dynamics.kinetostatics import kinetostatics
+    from pipeline.kinematics.drivers import Constant
+
+    system, q0 = _loader(True)
+    ks = kinetostatics(system, np.array([2.0]), q0)
+    q_star, f_lift = ks.q[0], ks.force("LCYL.d")[0]
+    tilt = Constant(float(system.drivers["TCYL.d"].value(2.0)))
+    held = System(system.mechanism, system.bodies, system.gravity,
+                  forces=[*system.forces, ForceCylinder("lift", "LCYL.d", f_lift)],
+                  drivers={"TCYL.d": tilt})
+    mech = system.mechanism
+    start = q_star.copy()
+    start[mech.index("LCYL.d")] += 0.02
+    res = static_equilibrium(held, start)
+    assert res.success, res.message
+    assert len(res.coordinates) == 2 and "CHASSIS_X.d" in res.coordinates
+    assert res.q[mech.index("LCYL.d")] == pytest.approx(q_star[mech.index("LCYL.d")], abs=1e-9)
+    assert np.abs(res.q - q_star).max() < 1e-8
