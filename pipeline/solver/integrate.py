@@ -33,7 +33,7 @@ class _Rhs:
 
     def __init__(self, system, part, q_guess):
         self.system, self.part, self.guess, self.count = system, part, q_guess, 0
-        self.t_last = float("nan")
+        self.t_last, self.steps = float("nan"), 0
         self.nI = part.independent.size
 
     def state(self, t, y):
@@ -81,21 +81,21 @@ def _record(rhs, t, y, out):
 
 def _march(solver, rhs, te, y0, progress, out):
     """Step ``solver`` over the grid ``te``, appending to ``out``; returns
-    (message or None, steps, output seconds)."""
-    steps, t_out = 0, 0.0
+    (message or None, output seconds). Accepted steps are counted in ``rhs.steps``."""
+    t_out = 0.0
     for k in progress_bar(range(te.size), total=te.size, description="simulating") if progress \
             else range(te.size):
         tk = te[k]
         while solver.t < tk and solver.status == "running":
             msg = solver.step()
-            steps += 1
+            rhs.steps += 1
             if solver.status == "failed":
-                return f"integrator failed at t = {solver.t:.6g} s: {msg}", steps, t_out
+                return f"integrator failed at t = {solver.t:.6g} s: {msg}", t_out
         s0 = time.perf_counter()
         y = y0 if solver.t_old is None else solver.dense_output()(tk)
         _record(rhs, tk, y, out)
         t_out += time.perf_counter() - s0
-    return None, steps, t_out
+    return None, t_out
 
 
 def run(system, q0, qd0, t_span, t_eval, solver_cls, name, rtol, atol, progress,
@@ -107,17 +107,17 @@ def run(system, q0, qd0, t_span, t_eval, solver_cls, name, rtol, atol, progress,
     rhs = _Rhs(system, part, q0)
     I = part.independent
     y0 = np.concatenate([q0[I], qd0[I], [0.0, 0.0]])
-    out, msg, steps, t_out = [], None, 0, 0.0
+    out, msg, t_out = [], None, 0.0
     try:
         solver = solver_cls(rhs, t0, y0, t1, rtol=rtol, atol=atol, max_step=max_step)
-        msg, steps, t_out = _march(solver, rhs, te, y0, progress, out)
+        msg, t_out = _march(solver, rhs, te, y0, progress, out)
     except (PipelineError, np.linalg.LinAlgError, FloatingPointError) as exc:
         msg = (f"integration failed at t = {rhs.t_last:.6g} s (last output t = "
                f"{out[-1][0] if out else t0:.6g} s): {exc}")
     total = time.perf_counter() - tic
     if msg:
         logger.warning("simulation: %s", msg)
-    return _result(system, part, out, msg, steps, rhs.count, name,
+    return _result(system, part, out, msg, rhs.steps, rhs.count, name,
                    {"integrate": total - t_out, "output": t_out, "total": total})
 
 
