@@ -32,10 +32,10 @@ import numpy as np
 from pipeline.dynamics.equations import EquationTerms, equation_terms
 from pipeline.kinematics.analysis import solve_position
 from pipeline.kinematics.closure import closure
-from pipeline.kinematics.partition import Partition, select_partition
+from pipeline.kinematics.partition import Partition, normalised_jacobian, select_partition
 
 __all__ = ["DynamicPartition", "ReducedState", "complete_position", "partition_system",
-           "reduced_state", "velocity_transform"]
+           "reduced_state", "repartition", "velocity_transform"]
 
 
 @dataclass(frozen=True)
@@ -86,6 +86,38 @@ def partition_system(system, q: np.ndarray) -> DynamicPartition:
     ind = np.sort(np.concatenate([mech.modal_coordinates, kin.free]).astype(int))
     return DynamicPartition(kin, ind, driven, tuple(system.drivers[k] for k in names),
                             bool(mech.topology.loops))
+
+
+def _rcond(mech, J: np.ndarray, kin: Partition) -> float:
+    """Smallest / largest singular value of the normalised dependent block."""
+    if kin.dependent.size == 0:
+        return 1.0
+    s = np.linalg.svd(normalised_jacobian(mech, J)[0][np.ix_(kin.rows, kin.dependent)],
+                      compute_uv=False)
+    return float(s[-1] / s[0]) if s[0] > 0 else 0.0
+
+
+def repartition(system, part: DynamicPartition, q: np.ndarray,
+                factor: float = 10.0) -> DynamicPartition | None:
+    """A better-conditioned split at q (n,), or None to keep ``part``.
+
+    Re-selects (DESIGN §3) when the best dependent block available is
+    ``factor`` times better conditioned than the current one, e.g. when the
+    current one approaches a toggle. Raises SingularConfigurationError if no
+    choice is regular (the loops themselves are singular at q).
+    """
+    if not part.has_loops or not part.kin.dependent.size:
+        return None
+    mech = system.mechanism
+    J = closure(mech, q).J
+    now = _rcond(mech, J, part.kin)
+    if now > 0.1:  # well conditioned: no need to look
+        return None
+    kin = select_partition(mech, J, part.kin.prescribed, q=q)
+    if kin.rcond < factor * now or np.array_equal(kin.dependent, part.kin.dependent):
+        return None
+    ind = np.sort(np.concatenate([mech.modal_coordinates, kin.free]).astype(int))
+    return DynamicPartition(kin, ind, part.driven, part.drivers, True)
 
 
 def complete_position(system, part: DynamicPartition, q_I: np.ndarray, t: float,

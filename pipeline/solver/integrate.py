@@ -19,7 +19,7 @@ import numpy as np
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.core.progress import progress_bar
 from pipeline.dynamics.energy import energies
-from pipeline.dynamics.partition import partition_system, reduced_state
+from pipeline.dynamics.partition import partition_system, reduced_state, repartition
 from pipeline.kinematics.closure import closure_residual
 from pipeline.solver.result import ENERGY_KEYS, SimulationResult
 
@@ -33,7 +33,7 @@ class _Rhs:
 
     def __init__(self, system, part, q_guess):
         self.system, self.part, self.guess, self.count = system, part, q_guess, 0
-        self.t_last, self.steps = float("nan"), 0
+        self.t_last, self.steps, self.reselections = float("nan"), 0, []
         self.nI = part.independent.size
 
     def state(self, t, y):
@@ -79,14 +79,34 @@ def _record(rhs, t, y, out):
                 st.driver_forces))
 
 
-def _march(solver, rhs, te, y0, progress, out):
+def _reselect(solver, rhs, make):
+    """Restart ``solver`` in better-conditioned independent coordinates if needed."""
+    new = repartition(rhs.system, rhs.part, rhs.guess)
+    if new is None:
+        return solver
+    st = rhs.state(solver.t, solver.y)
+    rhs.part, rhs.nI = new, new.independent.size
+    I = new.independent
+    y = np.concatenate([st.q[I], st.qd[I], solver.y[-2:]])
+    rhs.reselections.append(float(solver.t))
+    logger.info("re-selected independent coordinates at t = %.6g s: %s", solver.t,
+                [rhs.system.mechanism.coordinates[i] for i in I])
+    return make(solver.t, y)
+
+
+def _march(solver, rhs, te, y0, progress, out, make):
     """Step ``solver`` over the grid ``te``, appending to ``out``; returns
-    (message or None, output seconds). Accepted steps are counted in ``rhs.steps``."""
+    (message or None, output seconds). Accepted steps are counted in ``rhs.steps``;
+    before each step the partition is re-selected if it became ill-conditioned
+    (the solver restarts from the current state; the step after a restart
+    provides the dense output, so outputs never straddle a restart)."""
     t_out = 0.0
     for k in progress_bar(range(te.size), total=te.size, description="simulating") if progress \
             else range(te.size):
         tk = te[k]
         while solver.t < tk and solver.status == "running":
+            if rhs.steps:
+                solver = _reselect(solver, rhs, make)
             msg = solver.step()
             rhs.steps += 1
             if solver.status == "failed":
@@ -109,8 +129,10 @@ def run(system, q0, qd0, t_span, t_eval, solver_cls, name, rtol, atol, progress,
     y0 = np.concatenate([q0[I], qd0[I], [0.0, 0.0]])
     out, msg, t_out = [], None, 0.0
     try:
-        solver = solver_cls(rhs, t0, y0, t1, rtol=rtol, atol=atol, max_step=max_step)
-        msg, t_out = _march(solver, rhs, te, y0, progress, out)
+        def make(t, y):
+            return solver_cls(rhs, t, y, t1, rtol=rtol, atol=atol, max_step=max_step)
+
+        msg, t_out = _march(make(t0, y0), rhs, te, y0, progress, out, make)
     except (PipelineError, np.linalg.LinAlgError, FloatingPointError) as exc:
         msg = (f"integration failed at t = {rhs.t_last:.6g} s (last output t = "
                f"{out[-1][0] if out else t0:.6g} s): {exc}")
@@ -118,10 +140,12 @@ def run(system, q0, qd0, t_span, t_eval, solver_cls, name, rtol, atol, progress,
     if msg:
         logger.warning("simulation: %s", msg)
     return _result(system, part, out, msg, rhs.steps, rhs.count, name,
-                   {"integrate": total - t_out, "output": t_out, "total": total})
+                   {"integrate": total - t_out, "output": t_out, "total": total},
+                   tuple(rhs.reselections))
 
 
-def _result(system, part, out, msg, steps, n_rhs, name, timings) -> SimulationResult:
+def _result(system, part, out, msg, steps, n_rhs, name, timings,
+            reselections) -> SimulationResult:
     n = system.mechanism.n
     names = system.mechanism.coordinates
     k = len(out)
@@ -133,4 +157,5 @@ def _result(system, part, out, msg, steps, n_rhs, name, timings) -> SimulationRe
         t=np.array([o[0] for o in out]), q=stack(1), qd=stack(2), qdd=stack(3), energies=en,
         closure_residual=np.array([o[5] for o in out]), n_steps=steps, n_rhs=n_rhs,
         timings=timings, method=name, driven=tuple(names[i] for i in part.driven),
-        driver_forces=np.array([o[6] for o in out]).reshape(k, part.driven.size))
+        driver_forces=np.array([o[6] for o in out]).reshape(k, part.driven.size),
+        reselections=reselections)

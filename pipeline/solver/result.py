@@ -40,6 +40,7 @@ class SimulationResult:
     driven : names of the driven coordinates.
     driver_forces : (k, p) force (N) / torque (N m) each driver applies along
         its coordinate (e.g. a prescribed-length cylinder's force).
+    reselections : times (s) at which the independent coordinates were re-selected.
     """
 
     success: bool
@@ -58,12 +59,14 @@ class SimulationResult:
     method: str = ""
     driven: tuple[str, ...] = ()
     driver_forces: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    reselections: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "energies", MappingProxyType(dict(self.energies)))
         object.__setattr__(self, "timings", MappingProxyType(dict(self.timings)))
         object.__setattr__(self, "coordinates", tuple(self.coordinates))
         object.__setattr__(self, "driven", tuple(self.driven))
+        object.__setattr__(self, "reselections", tuple(self.reselections))
 
     def coordinate(self, name: str) -> np.ndarray:
         """(k,) history of coordinate ``name``."""
@@ -78,7 +81,8 @@ class SimulationResult:
                   "message": np.array(self.message), "method": np.array(self.method),
                   "n_steps": np.array(self.n_steps), "n_rhs": np.array(self.n_rhs),
                   "driven": np.array(self.driven, dtype=str),
-                  "driver_forces": self.driver_forces}
+                  "driver_forces": self.driver_forces,
+                  "reselections": np.array(self.reselections, dtype=float)}
         arrays.update({f"energy_{k}": v for k, v in self.energies.items()})
         arrays.update({f"timing_{k}": np.array(v) for k, v in self.timings.items()})
         return save_npz_atomic(path, **arrays)
