@@ -58,11 +58,12 @@ class _Breaks:
 
 
 @pytest.mark.parametrize("nan", [False, True])
-def test_failure_returns_partial_history(nan):
+@pytest.mark.parametrize("method", ["DOP853", "Radau"])
+def test_failure_returns_partial_history(nan, method):
     base = flexible_double_pendulum(n_modes=1).system
     s = System(base.mechanism, base.bodies, base.gravity, forces=(_Breaks(0.3, nan),))
     q0 = np.zeros(s.mechanism.n)
-    r = simulate(s, q0, q0, (0.0, 1.0), np.linspace(0, 1, 21), progress=False)
+    r = simulate(s, q0, q0, (0.0, 1.0), np.linspace(0, 1, 21), method=method, progress=False)
     assert not r.success and r.status == -1
     assert ("failed" in r.message) and ("t =" in r.message)
     assert 0 < r.t.size < 21 and r.t[-1] <= 0.3 and r.n_steps > 0
