@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.dynamics.equations import EquationTerms, equation_terms
-from pipeline.kinematics.analysis import solve_position
+from pipeline.kinematics.analysis import solve_position, velocity_map
 from pipeline.kinematics.closure import closure
 from pipeline.kinematics.partition import Partition, normalised_jacobian, select_partition
 
@@ -144,17 +144,9 @@ def velocity_transform(system, part: DynamicPartition, J: np.ndarray | None,
     B_p [i, k] = dq_i / dq_p_k: how the k-th driven coordinate moves the others
     through the loops (its transpose maps the equations onto the driver force).
     """
-    n, I, P = system.mechanism.n, part.independent, part.driven
-    B = np.zeros((n, I.size))
-    B[I, np.arange(I.size)] = 1.0
-    Bp = np.zeros((n, P.size))
-    Bp[P, np.arange(P.size)] = 1.0
-    dep = part.kin.dependent
-    if dep.size:
-        R = J[part.kin.rows]
-        inv = np.linalg.inv(R[:, dep])
-        B[dep] = -inv @ R[:, I]
-        Bp[dep] = -inv @ R[:, P]
+    I, P = part.independent, part.driven
+    both = velocity_map(J, part.kin, np.concatenate([I, P]), system.mechanism.n)
+    B, Bp = both[:, :I.size], both[:, I.size:]
     rates = np.array([d.rate(t) for d in part.drivers], dtype=float)
     return B, Bp, Bp @ rates
 

@@ -38,6 +38,7 @@ from pipeline.core.errors import ConfigError
 from pipeline.dynamics.equations import elastic_forces
 from pipeline.dynamics.gravity import gravity_force
 from pipeline.kinematics import assemble, closure, evaluate_tree, solve_position
+from pipeline.kinematics.analysis import velocity_map
 from pipeline.kinematics.failures import ClosureError, SingularConfigurationError
 from pipeline.kinematics.partition import Partition
 
@@ -117,15 +118,10 @@ def velocity_transform(system, q: np.ndarray, red: ReducedCoordinates,
 
     Columns may include held coordinates (B for the actuator reactions).
     """
-    cols = red.x if columns is None else np.asarray(columns, dtype=int)
+    cols = red.x if columns is None else columns
     part = red.partition
-    n = system.mechanism.n
-    B = np.zeros((n, cols.size))
-    B[cols, np.arange(cols.size)] = 1.0
-    if part.dependent.size:
-        J = closure(system.mechanism, q).J[part.rows]
-        B[part.dependent] = np.linalg.solve(J[:, part.dependent], -J[:, cols])
-    return B
+    J = closure(system.mechanism, q).J if part.dependent.size else None
+    return velocity_map(J, part, cols, system.mechanism.n)
 
 
 def _place(system, q_ref, red, xv, t):

@@ -185,6 +185,21 @@ def solve_velocity(J: np.ndarray, part: Partition, qd: np.ndarray) -> np.ndarray
     return out
 
 
+def velocity_map(J: np.ndarray | None, part: Partition, columns, n: int) -> np.ndarray:
+    """(n, k) dq/dx for x = q[columns], the dependent coordinates following the loops.
+
+    Columns are any coordinates that are not dependent (independent, driven,
+    modal); ``J`` may be None when ``part`` has no dependent coordinates (a tree).
+    """
+    columns = np.asarray(columns, dtype=int)
+    B = np.zeros((n, columns.size))
+    B[columns, np.arange(columns.size)] = 1.0
+    if part.dependent.size:
+        R = J[part.rows]
+        B[part.dependent] = np.linalg.solve(R[:, part.dependent], -R[:, columns])
+    return B
+
+
 def solve_acceleration(J: np.ndarray, gamma: np.ndarray, part: Partition,
                        qdd: np.ndarray) -> np.ndarray:
     """(n,) accelerations with the dependent entries solved from J q'' = gamma."""
