@@ -155,7 +155,8 @@ def singular_joints(mech: Mechanism, B: np.ndarray, cand: np.ndarray,
     _, s, Vt = np.linalg.svd(B)
     now = int(np.sum(s > RANK_RTOL * s[0])) if s.size and s[0] > 0 else 0
     lost = Vt[min(now, expected_rank - 1):expected_rank]
-    weight = np.abs(lost).max(axis=0)
+    # fewer candidate columns than constraints: every candidate is implicated
+    weight = np.abs(lost).max(axis=0) if lost.size else np.ones(cand.size)
     names = []
     for i in cand[weight > 0.1 * weight.max()]:
         j = mech.joint_of(int(i)) or mech.coordinates[i]

@@ -139,3 +139,14 @@ def test_bad_sweep_input():
         sweep(m, {"J2.theta": Linear(0, 1)}, [0.0, 0.0])
     with pytest.raises(ConfigError, match=r"coordinate 'J9.theta' does not exist"):
         sweep(m, {"J9.theta": Linear(0, 1)}, [0.0, 1.0])
+
+
+def test_singular_joints_with_fewer_candidates_than_constraints():
+    """Rank lost because too few coordinates remain: all of them are named, no crash."""
+    from pipeline.kinematics.partition import singular_joints
+
+    m = four_bar(0.04, 0.12, 0.09, 0.10)
+    cand = np.array([1, 2])
+    B = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    names = singular_joints(m, B, cand, expected_rank=3)
+    assert set(names) == {m.joint_of(1), m.joint_of(2)}
