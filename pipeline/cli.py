@@ -27,6 +27,8 @@ def register(name: str, module: str, help_text: str) -> None:
 
 
 register("reduce", "reduce", "mesh, assemble and reduce one link; print its summary")
+register("validate", "validate", "check a workflow YAML (file:line errors) without running it")
+register("run", "run", "run a workflow: analyses, plots, renders, exports into output/<name>/")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,35 @@
+"""``pipeline run WORKFLOW``: run every analysis and write output/<name>/."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def add_args(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("workflow", type=Path, help="workflow YAML (see workflows/)")
+    parser.add_argument("--set", dest="sets", action="append", default=[], metavar="PATH=VALUE",
+                        help="override a value, e.g. analyses.swing.t_end=0.5 (repeatable)")
+    parser.add_argument("--quick", action="store_true",
+                        help="coarse meshes and short runs (the file's quick: overrides)")
+    parser.add_argument("--out", type=Path, default=Path("output"),
+                        help="results go to OUT/<name>/ (default: output)")
+    parser.add_argument("--rebuild", action="store_true", help="ignore cached reduced links")
+
+
+def run(args: argparse.Namespace) -> int:
+    from pipeline.workflow import run_workflow
+
+    res = run_workflow(args.workflow, out_root=args.out, sets=args.sets, quick=args.quick,
+                       rebuild=args.rebuild)
+    man = res.manifest
+    print(f"{res.workflow.name}: {man['status']} in {man['timings_s']['total']:.1f} s "
+          f"-> {res.out_dir}")
+    for name, cases in man["analyses"].items():
+        for c in cases:
+            tag = f" [{c['case']}]" if c["case"] else ""
+            mark = "ok" if c["success"] else f"PARTIAL: {c['message']}"
+            print(f"  {c['type']:<12} {name}{tag}: {c['outputs']} outputs, {c['seconds']} s, "
+                  f"{mark}")
+    print(f"  files: {', '.join(man['files'])}")
+    return 0 if man["status"] == "ok" else 1

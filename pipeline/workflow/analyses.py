@@ -1,0 +1,186 @@
+"""Run one analysis of a workflow on a built machine -> :class:`AnalysisResult`.
+
+Every analysis type produces the same shape of result (times, coordinates,
+rates, accelerations, actuator forces, extra arrays), so series, plots and
+exports treat them alike. A failure inside an analysis (integration stopped,
+equilibrium not found, loops not closable along a sweep) is a status on the
+result with the history up to that point, never an exception that loses it.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from pipeline.core.errors import ConfigError
+from pipeline.dynamics import kinetostatics, static_equilibrium, vibration_modes
+from pipeline.kinematics import sweep
+from pipeline.workflow.build import Machine
+
+
+@dataclass(frozen=True)
+class AnalysisResult:
+    """Histories of one analysis (one case).
+
+    Attributes
+    ----------
+    name, type, case : analysis name, type and case label ("" without cases).
+    success, message : status (partial histories when False).
+    coordinates : (n,) coordinate names.
+    t : (T,) s (static and linearised: one entry, the evaluation time).
+    q, qd, qdd : (T, n) coordinates, rates, accelerations (rad, m, /s, /s^2).
+    forces : name -> (T,) actuator (driver/held coordinate) force, N or N m.
+    energies : name -> (T,) J (dynamic runs).
+    extra : further arrays (closure_residual, frequencies_hz, damping_ratios, M, K, C, ...).
+    timings : seconds ("total").
+    """
+
+    name: str
+    type: str
+    case: str
+    success: bool
+    message: str
+    coordinates: tuple[str, ...]
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    forces: dict = field(default_factory=dict)
+    energies: dict = field(default_factory=dict)
+    extra: dict = field(default_factory=dict)
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def label(self) -> str:
+        return self.case or self.name
+
+
+def _times(a) -> np.ndarray:
+    return np.linspace(0.0, a.t_end, a.outputs)
+
+
+def _hold(m: Machine, names, *path) -> tuple[str, ...]:
+    for i, name in enumerate(names):
+        if name not in m.mechanism.coordinates:
+            raise m.workflow.error(*path, i, msg=f"coordinate {name!r} does not exist; "
+                                                 f"coordinates: {list(m.mechanism.coordinates)}")
+    return tuple(names)
+
+
+def _markers(m: Machine, a, path) -> list[tuple[str, str]]:
+    out = []
+    for i, s in enumerate(a.markers):
+        link, _, frame = s.partition(".")
+        mech = m.mechanism
+        if link not in mech.link_names or frame not in [
+                f.name for f in mech.links[mech.link_index(link)].frames]:
+            raise m.workflow.error(*path, "markers", i, msg=f"expected an existing link.frame, "
+                                                            f"got {s!r}")
+        out.append((link, frame))
+    return out
+
+
+def run_kinematic(m: Machine, a, path) -> dict:
+    t = _times(a)
+    r = sweep(m.mechanism, m.system.drivers, t, m.q0, _markers(m, a, path))
+    n = r.n_done
+    return dict(success=r.success, message=r.message, t=t[:n], q=r.q[:n], qd=r.qd[:n],
+                qdd=r.qdd[:n], extra={"newton_iterations": r.newton_iterations[:n]})
+
+
+def run_static(m: Machine, a, path) -> dict:
+    r = static_equilibrium(m.system, m.q0, t=a.t, hold=_hold(m, a.hold, *path, "hold"))
+    z = np.zeros((1, m.mechanism.n))
+    return dict(success=r.success, message=r.message, t=np.array([a.t]), q=r.q[None, :],
+                qd=z, qdd=z.copy(), extra={"residual": r.residual, "iterations": r.iterations,
+                                           "unknowns": np.array(r.coordinates, dtype=object)})
+
+
+def run_kinetostatic(m: Machine, a, path) -> dict:
+    hold = None if a.hold is None else _hold(m, a.hold, *path, "hold")
+    r = kinetostatics(m.system, _times(a), m.q0, inertia=a.inertia, hold=hold,
+                      reactions=a.reactions)
+    n = int(np.sum(np.all(np.isfinite(r.q), axis=1)))
+    forces = {name: r.forces[:n, i] for i, name in enumerate(r.names)}
+    extra = {}
+    if a.reactions and r.reactions:
+        extra["reactions"] = r.reactions
+    return dict(success=r.success, message=r.message, t=r.t[:n], q=r.q[:n], qd=r.qd[:n],
+                qdd=r.qdd[:n], forces=forces, extra=extra)
+
+
+def run_dynamic(m: Machine, a, path) -> dict:
+    from pipeline.solver import simulate
+
+    q0 = m.q0
+    if a.start == "static":
+        r = static_equilibrium(m.system, m.q0)
+        if not r.success:
+            return dict(success=False, message=f"static start: {r.message}", t=np.zeros(0),
+                        q=np.zeros((0, m.mechanism.n)), qd=np.zeros((0, m.mechanism.n)),
+                        qdd=np.zeros((0, m.mechanism.n)))
+        q0 = r.q
+    opts: dict[str, Any] = {}
+    if a.max_step is not None:
+        opts["max_step"] = a.max_step
+    if a.method == "generalized_alpha":
+        opts.update(step=a.step, rho_inf=a.rho_inf)
+    elif a.step is not None:
+        raise m.workflow.error(*path, "step", msg="a fixed step is for method "
+                                                  "generalized_alpha; use max_step otherwise")
+    try:
+        r = simulate(m.system, q0, m.qd0, (0.0, a.t_end), t_eval=_times(a), method=a.method,
+                     rtol=a.rtol, atol=a.atol, progress=True, **opts)
+    except ConfigError as exc:
+        raise m.workflow.error(*path, msg=str(exc)) from None
+    forces = {name: r.driver_forces[:, i] for i, name in enumerate(r.driven)}
+    return dict(success=r.success, message=r.message, t=r.t, q=r.q, qd=r.qd, qdd=r.qdd,
+                forces=forces, energies=dict(r.energies),
+                extra={"closure_residual": r.closure_residual, "n_steps": r.n_steps,
+                       "n_rhs": r.n_rhs, "method": r.method})
+
+
+def run_linearised(m: Machine, a, path) -> dict:
+    q = m.q0
+    msg = ""
+    if a.start == "static":
+        r = static_equilibrium(m.system, m.q0, t=a.t, hold=_hold(m, a.hold, *path, "hold"))
+        if not r.success:
+            return dict(success=False, message=f"static start: {r.message}", t=np.array([a.t]),
+                        q=r.q[None, :], qd=np.zeros((1, r.q.size)), qdd=np.zeros((1, r.q.size)))
+        q = r.q
+    v = vibration_modes(m.system, q, t=a.t, hold=_hold(m, a.hold, *path, "hold"))
+    k = min(a.count, v.omega.size)
+    z = np.zeros((1, q.size))
+    lm = v.model
+    extra = {"frequencies_hz": v.frequencies_hz[:k], "omega": v.omega[:k],
+             "damping_ratios": v.damping_ratios[:k], "shapes": v.shapes[:, :k],
+             "shapes_q": v.shapes_q[:, :k], "M": lm.M, "K": lm.K, "C": lm.C, "B": lm.B,
+             "x_coordinates": np.array(lm.coordinates, dtype=object)}
+    return dict(success=True, message=msg, t=np.array([a.t]), q=q[None, :], qd=z, qdd=z.copy(),
+                extra=extra)
+
+
+RUNNERS = {"kinematic": run_kinematic, "static": run_static, "kinetostatic": run_kinetostatic,
+           "dynamic": run_dynamic, "linearised": run_linearised}
+
+
+def run_analysis(m: Machine, name: str) -> AnalysisResult:
+    """Run analysis ``name`` of the machine's workflow (the machine is built for one case)."""
+    wf = m.workflow
+    i, a = next((i, a) for i, a in enumerate(wf.spec.analyses) if a.name == name)
+    t0 = time.perf_counter()
+    if a.initial is not None:
+        from dataclasses import replace
+
+        from pipeline.workflow.build import initial_state
+
+        q0, qd0 = initial_state(wf, m.mechanism, m.system.drivers, a.initial,
+                                ("analyses", i, "initial"))
+        m = replace(m, q0=q0, qd0=qd0)
+    out = RUNNERS[a.type](m, a, ("analyses", i))
+    return AnalysisResult(name=a.name, type=a.type, case=wf.case, coordinates=m.mechanism.coordinates,
+                          timings={"total": time.perf_counter() - t0}, **out)

@@ -1,0 +1,369 @@
+"""Workflow spec -> machine: reduced links, mechanism, bodies, drivers, forces, initial state.
+
+This is where names meet: every ``link.frame``, coordinate and force field is
+checked here and a mistake is reported with the workflow file, line and YAML
+path. Reduced links are cached under ``<cache>/<spec name>-<hash>.npz`` so a
+quick and a full run, or two workflows, never overwrite each other's artifacts.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import ValidationError
+
+from pipeline.core.errors import ConfigError, PipelineError
+from pipeline.dynamics import BodyMass, System, body_from_reduced
+from pipeline.dynamics.forces import FORCES
+from pipeline.kinematics import Joint, assemble, build_mechanism, evaluate_tree, rigid_link
+from pipeline.kinematics.drivers import driver_from_dict
+from pipeline.kinematics.links import link_from_frames
+from pipeline.workflow.link_build import frame_axes, input_hash, link_request, reduce_spec
+from pipeline.workflow.link_spec import LinkSpec
+from pipeline.workflow.load import Workflow
+from pipeline.workflow.overrides import apply_overrides
+from pipeline.workflow.yaml_io import config_error, load_yaml
+
+#: fields of force elements that name a marker as "link.frame"
+MARKER_FIELDS = ("marker", "marker_a", "marker_b")
+#: out-of-plane motions per plane: (translation axis, rotation axes) in the body frame
+_OUT_OF_PLANE = {"xy": (2, (0, 1)), "yz": (0, (1, 2)), "xz": (1, (0, 2))}
+
+
+@dataclass(frozen=True)
+class FlexPart:
+    """A reduced link as used in the machine: the artifact and the kept mode indices."""
+
+    reduced: Any  # ReducedLink
+    modes: tuple[int, ...]
+    cache: str  # hit | miss | corrupt | rebuilt
+
+
+@dataclass(frozen=True)
+class Machine:
+    """The built machine of a workflow.
+
+    Attributes
+    ----------
+    workflow : the Workflow it came from.  system : pipeline.dynamics.System.
+    q0 : (n,) assembled initial coordinates (drivers at t = 0).  qd0 : (n,) initial rates.
+    parts : link name -> FlexPart for links built from a link spec (flexible or meshed rigid).
+    """
+
+    workflow: Workflow
+    system: System
+    q0: np.ndarray
+    qd0: np.ndarray
+    parts: dict = field(default_factory=dict)
+
+    @property
+    def mechanism(self):
+        return self.system.mechanism
+
+
+class _View:
+    """Frame description accepted by link_from_frames (name, pose, phi, psi)."""
+
+    def __init__(self, name, pose, phi, psi):
+        self.name, self.pose, self.phi, self.psi = name, pose, phi, psi
+
+
+def frame_pose(f, where: str) -> np.ndarray:
+    """(4, 4) pose of a FrameSpec (origin m, axes from z and x)."""
+    T = np.eye(4)
+    T[:3, 3] = f.origin
+    if f.z is not None or f.x is not None:
+        try:
+            T[:3, :3] = frame_axes(f.z if f.z is not None else [0.0, 0.0, 1.0], f.x)
+        except (ConfigError, FloatingPointError, ZeroDivisionError) as exc:
+            raise ConfigError(f"{where}: {exc}") from None
+    return T
+
+
+def _inertia(value) -> np.ndarray:
+    a = np.asarray(value, dtype=float)
+    if a.shape == (6,):
+        ixx, iyy, izz, ixy, iyz, ixz = a
+        a = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+    return a
+
+
+def _link_spec(wf: Workflow, name: str, entry) -> tuple[LinkSpec, Path]:
+    """The link spec of a link entry (file or inline) with ``spec_overrides`` applied."""
+    where = wf.where("links", name, "spec")
+    if isinstance(entry.spec, LinkSpec) and not entry.spec_overrides:
+        return entry.spec, wf.base_dir
+    if isinstance(entry.spec, LinkSpec):
+        data, path, lines = entry.spec.model_dump(mode="json", exclude_none=True), wf.path, wf.lines
+        base = wf.base_dir
+    else:
+        path = (wf.base_dir / entry.spec).resolve()
+        if not path.is_file():
+            raise ConfigError(f"{where}: link spec file {str(path)!r} not found")
+        data, lines = load_yaml(path)
+        base = path.parent
+    data = apply_overrides(data, entry.spec_overrides,
+                           f"{wf.where('links', name, 'spec_overrides')}")
+    try:
+        return LinkSpec.model_validate(data), base
+    except ValidationError as exc:
+        raise config_error(exc, path, data, lines) from None
+
+
+def kept_modes(reduced, modes, plane: str | None, tol: float = 1e-3) -> tuple[int, ...]:
+    """Indices of the kept modes: a count (lowest n) or indices, optionally only those
+    whose frames move in ``plane`` (out-of-plane motion below ``tol`` x in-plane)."""
+    candidates = list(range(reduced.n_modes))
+    if plane is not None:
+        t_out, r_out = _OUT_OF_PLANE[plane]
+        t_in = [a for a in range(3) if a != t_out]
+        r_in = [a for a in range(3) if a not in r_out][0]
+        keep = []
+        for a in candidates:
+            out = max(max(abs(f.phi[a, t_out]), *np.abs(f.psi[a, list(r_out)]))
+                      for f in reduced.frames)
+            inp = max(max(*np.abs(f.phi[a, t_in]), abs(f.psi[a, r_in])) for f in reduced.frames)
+            if out <= tol * inp:
+                keep.append(a)
+        candidates = keep
+    if modes is None:
+        return tuple(candidates)
+    if isinstance(modes, int):
+        if modes > len(candidates):
+            raise ConfigError(f"modes: {modes} requested, {len(candidates)} available"
+                              + (f" in plane {plane}" if plane else "")
+                              + f" (the spec computes {reduced.n_modes}; raise its modes.count)")
+        return tuple(candidates[:modes])
+    bad = [m for m in modes if m not in candidates]
+    if bad:
+        raise ConfigError(f"modes: indices {bad} not available; available: {candidates}")
+    return tuple(modes)
+
+
+def _flex_frames(reduced, idx, plane, extra, where_frames) -> list[_View]:
+    """Frames of a reduced link restricted to the kept modes (projected on ``plane``),
+    plus extra frames fixed on existing ones (first order, like the shape matrix)."""
+    views = {}
+    for f in reduced.frames:
+        phi, psi = np.array(f.phi)[list(idx)], np.array(f.psi)[list(idx)]
+        if plane is not None:  # the planar loops cannot follow residual out-of-plane motion
+            t_out, r_out = _OUT_OF_PLANE[plane]
+            phi[:, t_out] = 0.0
+            psi[:, list(r_out)] = 0.0
+        views[f.name] = _View(f.name, np.array(f.pose, dtype=float), phi, psi)
+    for new, fs in extra.items():
+        if fs.on not in views:
+            raise ConfigError(f"{where_frames}.{new}.on: expected one of {sorted(views)}, "
+                              f"got {fs.on!r}")
+        base = views[fs.on]
+        local = frame_pose(fs, f"{where_frames}.{new}")
+        pose = base.pose @ local
+        views[new] = _View(new, pose, base.phi + np.cross(base.psi, base.pose[:3, :3]
+                                                         @ local[:3, 3]), base.psi.copy())
+    return list(views.values())
+
+
+def _reduce(wf: Workflow, name: str, entry, cache_dir: Path, rebuild: bool):
+    spec, base = _link_spec(wf, name, entry)
+    request_files = link_request(spec, base)[1]
+    digest = input_hash(spec, request_files)
+    out = Path(cache_dir) / f"{spec.name}-{digest[:12]}"
+    try:
+        return reduce_spec(spec, base, out, rebuild)
+    except PipelineError as exc:
+        raise type(exc)(f"{wf.where('links', name, 'spec')}: {exc}") from exc
+
+
+def build_links(wf: Workflow, cache_dir: Path, rebuild: bool = False):
+    """(kinematics links, bodies, parts) of every link entry."""
+    links, bodies, parts = [], {}, {}
+    for name, entry in wf.spec.links.items():
+        where = wf.where("links", name)
+        if entry.type == "ground":
+            frames = {k: frame_pose(f, f"{where}.frames.{k}") for k, f in entry.frames.items()}
+            links.append(rigid_link(name, frames))
+            continue
+        if entry.spec is None:  # rigid with given mass properties
+            frames = {k: frame_pose(f, f"{where}.frames.{k}") for k, f in entry.frames.items()}
+            links.append(rigid_link(name, frames))
+            com = entry.com if entry.com is not None else [0.0, 0.0, 0.0]
+            try:
+                bodies[name] = BodyMass.rigid(entry.mass, com, _inertia(entry.inertia))
+            except ConfigError as exc:
+                raise ConfigError(f"{where}: {exc}") from None
+            continue
+        red, status = _reduce(wf, name, entry, cache_dir, rebuild)
+        plane = getattr(entry, "plane", None)
+        try:
+            idx = kept_modes(red, getattr(entry, "modes", 0) if entry.type == "flexible" else 0,
+                             plane)
+        except ConfigError as exc:
+            raise ConfigError(f"{where}.{exc}") from None
+        extra = entry.frames
+        if entry.type == "rigid":
+            extra = {k: v for k, v in entry.frames.items()}
+            for k, v in extra.items():
+                if v.on is None:
+                    raise wf.error("links", name, "frames", k, "on",
+                                   msg="a frame on a meshed link needs `on:` (a spec interface "
+                                       "or marker)")
+        views = _flex_frames(red, idx, plane, extra, f"{where}.frames")
+        links.append(link_from_frames(name, views))
+        if idx:
+            d = entry.damping
+            try:
+                bodies[name] = body_from_reduced(
+                    red, list(idx), damping_ratios=None if d is None else (
+                        d.ratios if d.ratios is not None else
+                        ([d.ratio] * len(idx) if d.ratio is not None else None)),
+                    rayleigh=None if d is None else d.rayleigh)
+            except ConfigError as exc:
+                raise ConfigError(f"{where}: {exc}") from None
+        else:
+            bodies[name] = BodyMass(C=np.array(red.C, dtype=float))
+        parts[name] = FlexPart(red, idx, status)
+    return links, bodies, parts
+
+
+def _split(wf: Workflow, value: str, *path) -> tuple[str, str]:
+    link, _, frame = value.partition(".")
+    if link not in wf.spec.links or not frame:
+        raise wf.error(*path, msg=f"expected 'link.frame' with link one of "
+                                  f"{sorted(wf.spec.links)}, got {value!r}")
+    return link, frame
+
+
+def build_joints(wf: Workflow, links) -> list[Joint]:
+    frames = {l.name: [f.name for f in l.frames] for l in links}
+    joints = []
+    for i, j in enumerate(wf.spec.joints):
+        sides = []
+        for side in ("parent", "child"):
+            link, frame = _split(wf, getattr(j, side), "joints", i, side)
+            if frame not in frames[link]:
+                raise wf.error("joints", i, side, msg=f"link {link!r} has no frame {frame!r}; "
+                                                      f"frames: {frames[link]}")
+            sides += [link, frame]
+        try:
+            joints.append(Joint(j.name, j.type, sides[0], sides[1], sides[2], sides[3],
+                                tuple(j.initial)))
+        except ConfigError as exc:
+            raise wf.error("joints", i, msg=str(exc)) from None
+    return joints
+
+
+def _coordinate(wf: Workflow, mech, name: str, *path) -> int:
+    if name not in mech.coordinates:
+        raise wf.error(*path, msg=f"coordinate {name!r} does not exist; coordinates: "
+                                  f"{list(mech.coordinates)}")
+    return mech.index(name)
+
+
+def build_drivers(wf: Workflow, mech) -> dict:
+    out = {}
+    for key, d in wf.spec.drivers.items():
+        _coordinate(wf, mech, key, "drivers", key)
+        out[key] = driver_from_dict(d, wf.where("drivers", key), wf.base_dir)
+    return out
+
+
+def _element_kwargs(wf: Workflow, mech, i: int, f) -> dict:
+    kw = dict(f.model_extra or {})
+    for key in MARKER_FIELDS:
+        if key in kw:
+            if not isinstance(kw[key], str):
+                raise wf.error("forces", i, key, msg=f"expected 'link.frame', got {kw[key]!r}")
+            link, frame = _split(wf, kw[key], "forces", i, key)
+            names = [fr.name for fr in mech.links[mech.link_index(link)].frames]
+            if frame not in names:
+                raise wf.error("forces", i, key, msg=f"link {link!r} has no frame {frame!r}; "
+                                                     f"frames: {names}")
+            kw[key] = (link, frame)
+    if "coordinate" in kw:
+        _coordinate(wf, mech, str(kw["coordinate"]), "forces", i, "coordinate")
+    if isinstance(kw.get("history"), dict):
+        kw["history"] = driver_from_dict(kw["history"], wf.where("forces", i, "history"),
+                                         wf.base_dir)
+    return kw
+
+
+def _marker_distance(mech, q, a, b) -> float:
+    from pipeline.dynamics.forces.base import marker_pose
+
+    tree = evaluate_tree(mech, q, derivatives=False)
+    stub = type("S", (), {"mechanism": mech})()
+    pa, pb = (marker_pose(stub, *m, tree, q)[:3, 3] for m in (a, b))
+    return float(np.linalg.norm(pb - pa))
+
+
+def build_forces(wf: Workflow, mech, q0) -> list:
+    out = []
+    for i, f in enumerate(wf.spec.forces):
+        if f.type not in FORCES:
+            raise wf.error("forces", i, "type", msg=f"expected one of {sorted(FORCES)}, "
+                                                    f"got {f.type!r}")
+        cls = FORCES[f.type]
+        kw = _element_kwargs(wf, mech, i, f)
+        if kw.get("free_length") == "initial":
+            if "marker_a" not in kw or "marker_b" not in kw:
+                raise wf.error("forces", i, "free_length",
+                               msg="'initial' needs marker_a and marker_b")
+            kw["free_length"] = _marker_distance(mech, q0, kw["marker_a"], kw["marker_b"])
+        fields = [x.name for x in dataclasses.fields(cls) if x.name != "name"]
+        unknown = sorted(set(kw) - set(fields))
+        if unknown:
+            raise wf.error("forces", i, unknown[0],
+                           msg=f"unknown field for a {f.type} (misspelt?); fields: {fields}")
+        try:
+            out.append(cls(name=f.name, **kw))
+        except TypeError as exc:
+            raise wf.error("forces", i, msg=f"{exc}; fields of {f.type}: {fields}") from None
+        except ConfigError as exc:
+            raise wf.error("forces", i, msg=str(exc)) from None
+    return out
+
+
+def initial_state(wf: Workflow, mech, drivers, init=None, path=("initial",)):
+    """(q0, qd0): joints' initial values, ``initial:`` overrides (``init``, default the
+    workflow's), drivers at t = 0, loops closed."""
+    init = wf.spec.initial if init is None else init
+    q = mech.q_initial.copy()
+    qd = np.zeros(mech.n)
+    for key, v in init.coordinates.items():
+        q[_coordinate(wf, mech, key, *path, "coordinates", key)] = v
+    for key, v in init.velocities.items():
+        qd[_coordinate(wf, mech, key, *path, "velocities", key)] = v
+    for key, d in drivers.items():
+        q[mech.index(key)] = float(d.value(0.0))
+        qd[mech.index(key)] = float(d.rate(0.0))
+    try:
+        q = assemble(mech, q, tuple(drivers)).q
+    except PipelineError as exc:
+        raise wf.error(*path, msg=f"cannot assemble the machine at t = 0: {exc}") from None
+    return q, qd
+
+
+def build_machine(wf: Workflow, cache_dir: str | Path = "output/links",
+                  rebuild: bool = False) -> Machine:
+    """Reduce the links (cached), build mechanism, bodies, drivers, forces; assemble at t = 0.
+
+    Raises
+    ------
+    ConfigError
+        Any inconsistency, named by workflow file, line and YAML path.
+    """
+    links, bodies, parts = build_links(wf, Path(cache_dir), rebuild)
+    joints = build_joints(wf, links)
+    try:
+        mech = build_mechanism(links, joints)
+    except ConfigError as exc:
+        raise wf.error("joints", msg=str(exc)) from None
+    drivers = build_drivers(wf, mech)
+    q0, qd0 = initial_state(wf, mech, drivers)
+    forces = build_forces(wf, mech, q0)
+    system = System(mech, bodies, wf.spec.gravity, forces=forces, drivers=drivers)
+    return Machine(wf, system, q0, qd0, parts)

@@ -1,0 +1,275 @@
+"""Write a run's outputs into its (temporary) folder: CSV/NPZ exports, plots, renders,
+animations and the ParaView series. Returns the relative file names for the manifest."""
+
+from __future__ import annotations
+
+import csv
+import re
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.core.errors import ConfigError
+from pipeline.core.progress import stage
+from pipeline.workflow.series import marker_positions, series
+
+
+def slug(text: str) -> str:
+    """File-name-safe form of a case label ("3 modes" -> "3_modes")."""
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "case"
+
+
+def _stem(r) -> str:
+    return r.name + (f"_{slug(r.case)}" if r.case else "")
+
+
+def _analysis_spec(wf, name):
+    return next((i, a) for i, a in enumerate(wf.spec.analyses) if a.name == name)
+
+
+def export_csv(path: Path, r, mech, markers) -> None:
+    """Main histories of one result: time, coordinates, marker positions, actuator forces,
+    energies (one row per output time)."""
+    cols = {"time_s": r.t}
+    for i, c in enumerate(r.coordinates):
+        cols[c] = r.q[:, i]
+    for link, frame in markers:
+        P = marker_positions(mech, r.q, link, frame)
+        for k, ax in enumerate("xyz"):
+            cols[f"{link}.{frame}.{ax}_m"] = P[:, k]
+    for name, f in r.forces.items():
+        cols[f"force:{name}"] = f
+    for name, e in r.energies.items():
+        cols[f"energy:{name}_J"] = e
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(list(cols))
+        for row in zip(*cols.values()):
+            w.writerow([f"{float(x):.12g}" for x in row])
+
+
+def export_modes_csv(path: Path, r) -> None:
+    f, z = r.extra["frequencies_hz"], r.extra["damping_ratios"]
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["mode", "frequency_hz", "damping_ratio"])
+        for i, (a, b) in enumerate(zip(f, z)):
+            w.writerow([i + 1, f"{a:.10g}", f"{b:.6g}"])
+
+
+def export_npz(path: Path, r) -> None:
+    arrays = {"t": r.t, "q": r.q, "qd": r.qd, "qdd": r.qdd,
+              "coordinates": np.array(r.coordinates), "success": np.array(r.success),
+              "message": np.array(r.message)}
+    for k, v in r.forces.items():
+        arrays[f"force:{k}"] = np.asarray(v)
+    for k, v in r.energies.items():
+        arrays[f"energy:{k}"] = np.asarray(v)
+    for k, v in r.extra.items():
+        a = np.asarray(v) if not isinstance(v, tuple) else None
+        if a is not None and a.dtype != object:
+            arrays[k] = a
+        elif a is not None and a.dtype == object and a.ndim == 1:
+            arrays[k] = a.astype(str)
+    np.savez_compressed(path, **arrays)
+
+
+def _markers_of(m, a):
+    return [tuple(s.split(".", 1)) for s in a.markers]
+
+
+def write_exports(folder: Path, wf, machines, results) -> list[str]:
+    files = []
+    ex = wf.spec.outputs.exports
+    for name, rs in results.items():
+        i, a = _analysis_spec(wf, name)
+        for r in rs:
+            mech = machines[r.case].mechanism
+            stem = _stem(r)
+            if ex.csv:
+                if r.type == "linearised":
+                    export_modes_csv(folder / f"{stem}_modes.csv", r)
+                    files.append(f"{stem}_modes.csv")
+                export_csv(folder / f"{stem}.csv", r, mech, _markers_of(machines[r.case], a))
+                files.append(f"{stem}.csv")
+            if ex.npz:
+                export_npz(folder / f"{stem}.npz", r)
+                files.append(f"{stem}.npz")
+    return files
+
+
+def _plot(folder: Path, wf, machines, results, idx: int, p) -> str:
+    from pipeline.post.plots import Curve, Panel, plot_panels
+
+    rs = results[p.analysis]
+    if p.cases is not None:
+        known = [r.case for r in rs]
+        bad = [c for c in p.cases if c not in known]
+        if bad:
+            raise wf.error("outputs", "plots", idx, "cases",
+                           msg=f"expected case labels among {known}, got {bad}")
+        rs = [r for r in rs if r.case in p.cases]
+    panels = []
+    for s in p.series:
+        curves, unit, label = [], "", s
+        for r in rs:
+            mech = machines[r.case].mechanism
+            try:
+                y = series(r, mech, s)
+                x = series(r, mech, p.x) if s != "frequency" else None
+            except ConfigError as exc:
+                raise wf.error("outputs", "plots", idx, msg=str(exc)) from None
+            xv = np.arange(1, y.values.size + 1) if x is None else x.values
+            curve_label = r.case or y.label
+            curves.append(Curve(curve_label, xv, y.values))
+            unit, label = y.unit, y.label
+            xl = "mode number" if x is None else f"{x.label}, {x.unit}"
+        panels.append(Panel(label if len(p.series) > 1 else (p.title or label), xl,
+                            p.ylabel or f"{label}, {unit}", curves))
+    path = folder / f"{p.name}.png"
+    plot_panels(path, panels, suptitle=p.title if len(panels) > 1 else None)
+    return path.name
+
+
+def machine_shapes(m) -> dict:
+    """LinkShape per link of a machine: meshes of reduced links, boxes/cylinders/sticks else."""
+    from pipeline.post import shapes as sh
+    from pipeline.post.primitives import box_surface, cylinder_surface
+
+    mech = m.mechanism
+    out = {}
+    for name, entry in m.workflow.spec.links.items():
+        link = mech.links[mech.link_index(name)]
+        if name in m.parts:
+            out[name] = sh.shape_from_reduced(m.parts[name].reduced, list(m.parts[name].modes),
+                                              link=name)
+            continue
+        shape = entry.shape
+        if shape is None and entry.type == "ground":
+            continue
+        if shape is not None and shape.type == "box":
+            out[name] = sh.shape_from_surface(name, *box_surface(shape.size, shape.center))
+        elif shape is not None and shape.type == "cylinder":
+            out[name] = sh.shape_from_surface(name, *cylinder_surface(shape.start, shape.end,
+                                                                      shape.radius))
+        else:
+            out[name] = sh.stick_shape(link, getattr(shape, "radius", 0.02))
+    return out
+
+
+def _scale(spec_scale):
+    return None if spec_scale == "auto" else float(spec_scale)
+
+
+def _pick(rs, case, wf, *path):
+    if case is None:
+        return rs[0]
+    for r in rs:
+        if r.case == case:
+            return r
+    raise wf.error(*path, msg=f"expected a case among {[r.case for r in rs]}, got {case!r}")
+
+
+def _auto_scale(m, shapes, Q) -> float:
+    """Magnification that makes the largest elastic displacement ~5 % of the machine size."""
+    from pipeline.post.scene import posed_points
+
+    size, peak = 1e-9, 0.0
+    for q in Q:
+        for shp in shapes.values():
+            P, d = posed_points(m.mechanism, shp, q, scale=1.0)
+            size = max(size, float(np.ptp(P, axis=0).max()))
+            peak = max(peak, float(np.max(d, initial=0.0)))
+    if peak <= 0:
+        return 1.0
+    raw = 0.05 * size / peak
+    return float(10 ** np.floor(np.log10(raw))) if raw > 1 else 1.0
+
+
+def _render(folder, wf, machines, results, idx, rs_spec) -> str:
+    from pipeline.post.scene import render_machine, render_positions
+
+    rs = results[rs_spec.analysis]
+    path = folder / f"{rs_spec.name}.png"
+    if rs_spec.case is None and len(rs) > 1 and rs[0].type == "static":
+        m = machines[rs[0].case]
+        shapes = machine_shapes(m)
+        Q = [r.q[-1] for r in rs]
+        scale = _scale(rs_spec.scale) or _auto_scale(m, shapes, Q)
+        render_positions(path, m.mechanism, shapes, Q, [r.case for r in rs], scale=scale,
+                         camera=rs_spec.camera, title=rs_spec.title)
+        return path.name
+    r = _pick(rs, rs_spec.case, wf, "outputs", "renders", idx, "case")
+    m = machines[r.case]
+    shapes = machine_shapes(m)
+    if rs_spec.at:
+        ks = [int(np.argmin(np.abs(r.t - t))) for t in rs_spec.at]
+    else:
+        ks = [len(r.t) - 1]
+    Q = [r.q[k] for k in ks]
+    scale = _scale(rs_spec.scale) or _auto_scale(m, shapes, Q)
+    title = rs_spec.title or f"{wf.name}: {r.label}"
+    if len(Q) == 1:
+        render_machine(path, m.mechanism, shapes, Q[0], scale=scale, camera=rs_spec.camera,
+                       title=f"{title}, t = {r.t[ks[0]]:.3g} s")
+    else:
+        render_positions(path, m.mechanism, shapes, Q, [f"t = {r.t[k]:.3g} s" for k in ks],
+                         scale=scale, camera=rs_spec.camera, title=title)
+    return path.name
+
+
+def _animate(folder, wf, machines, results, idx, an) -> str:
+    from pipeline.post.scene import animate_machine
+
+    r = _pick(results[an.analysis], an.case, wf, "outputs", "animations", idx, "case")
+    m = machines[r.case]
+    shapes = machine_shapes(m)
+    scale = _scale(an.scale) or _auto_scale(m, shapes, r.q[:: max(1, len(r.t) // 10)])
+    path = folder / f"{an.name}.{an.format}"
+    animate_machine(path, m.mechanism, shapes, r.t, r.q, scale=scale, fps=an.fps,
+                    max_frames=an.max_frames, camera=an.camera)
+    return path.name
+
+
+def _vtu(folder, machines, results) -> list[str]:
+    from pipeline.post.vtk_series import write_vtk_series
+
+    files = []
+    for name, rs in results.items():
+        for r in rs:
+            if len(r.t) < 1:
+                continue
+            m = machines[r.case]
+            sub = folder / "vtk" / _stem(r)
+            pvd = write_vtk_series(sub, m.mechanism, machine_shapes(m), r.t, r.q, name=_stem(r))
+            files.append(str(Path(pvd).relative_to(folder)))
+    return files
+
+
+def write_outputs(folder: Path, wf, machines, results, timings: dict) -> list[str]:
+    """All requested outputs of a run into ``folder``; returns their relative names."""
+    files = []
+    t0 = time.perf_counter()
+    with stage(f"{wf.name}: exports"):
+        files += write_exports(folder, wf, machines, results)
+    timings["exports"] = time.perf_counter() - t0
+    outs = wf.spec.outputs
+    t0 = time.perf_counter()
+    with stage(f"{wf.name}: plots"):
+        for i, p in enumerate(outs.plots):
+            files.append(_plot(folder, wf, machines, results, i, p))
+    timings["plots"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    with stage(f"{wf.name}: renders"):
+        for i, r in enumerate(outs.renders):
+            files.append(_render(folder, wf, machines, results, i, r))
+        for i, an in enumerate(outs.animations):
+            files.append(_animate(folder, wf, machines, results, i, an))
+    timings["renders"] = time.perf_counter() - t0
+    if outs.exports.vtu:
+        t0 = time.perf_counter()
+        with stage(f"{wf.name}: ParaView series"):
+            files += _vtu(folder, machines, results)
+        timings["vtu"] = time.perf_counter() - t0
+    return files

@@ -1,0 +1,158 @@
+"""``run_workflow``: load -> build (per case) -> analyses -> outputs, atomically in
+``output/<name>/`` with a ``manifest.json`` (input hash, versions, timings, status).
+
+Results are written into a hidden sibling folder and swapped in at the end, so a
+run that raises leaves the previous results untouched and nothing half-written.
+An analysis that fails numerically (integration stopped, no equilibrium) is
+not an exception: its partial history is written and marked ``partial`` in the
+manifest.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from pipeline.core.progress import stage
+from pipeline.workflow.analyses import AnalysisResult, run_analysis
+from pipeline.workflow.build import Machine, build_machine
+from pipeline.workflow.link_build import versions
+from pipeline.workflow.load import Workflow, load_workflow
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """Everything a run produced.
+
+    Attributes
+    ----------
+    workflow : the loaded Workflow.  out_dir : output/<name>.
+    machine : the base Machine (no case overrides).
+    machines : case label -> Machine built for that case ("" is the base).
+    results : analysis name -> [AnalysisResult per case] (one entry without cases).
+    manifest : the manifest.json content.
+    """
+
+    workflow: Workflow
+    out_dir: Path
+    machine: Machine
+    machines: dict = field(default_factory=dict)
+    results: dict = field(default_factory=dict)
+    manifest: dict = field(default_factory=dict)
+
+    def result(self, analysis: str, case: str | None = None) -> AnalysisResult:
+        """The result of ``analysis`` (its case ``case``; default the first)."""
+        rs = self.results[analysis]
+        if case is None:
+            return rs[0]
+        for r in rs:
+            if r.case == case:
+                return r
+        raise KeyError(f"analysis {analysis!r} has no case {case!r}; cases: "
+                       f"{[r.case for r in rs]}")
+
+
+def _case_machine(wf: Workflow, base: Machine, cache: dict, case, cache_dir, rebuild) -> Machine:
+    if case is None:
+        return base
+    key = json.dumps(case.set, sort_keys=True, default=str)
+    if key not in cache:
+        cache[key] = build_machine(wf.for_case(case.set, case.label), cache_dir, rebuild)
+    m = cache[key]
+    if m.workflow.case != case.label:  # same overrides, other label
+        m = Machine(wf.for_case(case.set, case.label), m.system, m.q0, m.qd0, m.parts)
+    return m
+
+
+def _swap_in(tmp: Path, final: Path) -> None:
+    old = final.with_name(f".{final.name}.old-{os.getpid()}")
+    if final.exists():
+        final.rename(old)
+    tmp.rename(final)
+    if old.exists():
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def run_workflow(workflow: str | Path | Workflow, *, out_root: str | Path = "output",
+                 sets=(), quick: bool = False, cache_dir: str | Path | None = None,
+                 rebuild: bool = False, outputs: bool = True) -> RunResult:
+    """Run every analysis of a workflow and write its outputs.
+
+    Parameters
+    ----------
+    workflow : YAML path or a loaded Workflow (then ``sets``/``quick`` are ignored).
+    out_root : results go to ``out_root/<name>/``.
+    sets : ``"path=value"`` overrides.  quick : apply the file's ``quick:`` overrides.
+    cache_dir : reduced-link cache (default ``out_root/links``).
+    rebuild : ignore cached reduced links.
+    outputs : write plots, renders and exports (False: results only, for tests).
+
+    Raises
+    ------
+    ConfigError
+        Bad workflow (file:line: path: what was expected); nothing is written then.
+    """
+    from pipeline.workflow.outputs import write_outputs
+
+    wf = workflow if isinstance(workflow, Workflow) else load_workflow(workflow, sets, quick)
+    out_root = Path(out_root)
+    cache_dir = Path(cache_dir) if cache_dir is not None else out_root / "links"
+    final = out_root / wf.name
+    tmp = out_root / f".{wf.name}.partial-{os.getpid()}"
+    timings: dict[str, float] = {}
+    t_start = time.perf_counter()
+    try:
+        if tmp.exists():
+            shutil.rmtree(tmp)
+        tmp.mkdir(parents=True)
+        t0 = time.perf_counter()
+        with stage(f"{wf.name}: build machine"):
+            base = build_machine(wf, cache_dir, rebuild)
+        timings["build"] = time.perf_counter() - t0
+        machines, cache, results = {"": base}, {}, {}
+        for a in wf.spec.analyses:
+            t0 = time.perf_counter()
+            results[a.name] = []
+            for case in (a.cases or [None]):
+                label = f" [{case.label}]" if case else ""
+                with stage(f"{wf.name}: {a.type} analysis '{a.name}'{label}"):
+                    m = _case_machine(wf, base, cache, case, cache_dir, rebuild)
+                    machines[m.workflow.case] = m
+                    results[a.name].append(run_analysis(m, a.name))
+            timings[f"analysis:{a.name}"] = time.perf_counter() - t0
+        files: list[str] = []
+        if outputs:
+            files = write_outputs(tmp, wf, machines, results, timings)
+        status = "ok" if all(r.success for rs in results.values() for r in rs) else "partial"
+        timings["total"] = time.perf_counter() - t_start
+        manifest = _manifest(wf, base, results, timings, status, files)
+        (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, default=str))
+        final.parent.mkdir(parents=True, exist_ok=True)
+        _swap_in(tmp, final)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return RunResult(wf, final, base, machines, results, manifest)
+
+
+def _manifest(wf: Workflow, base: Machine, results, timings, status, files) -> dict:
+    analyses = {}
+    for name, rs in results.items():
+        analyses[name] = [{"case": r.case, "type": r.type, "success": r.success,
+                           "message": r.message, "outputs": int(len(r.t)),
+                           "seconds": round(r.timings.get("total", 0.0), 3)} for r in rs]
+    links = {name: {"artifact": p.reduced.meta.get("input_hash", "")[:12], "cache": p.cache,
+                    "modes": list(p.modes),
+                    "frequencies_hz": [float(p.reduced.frequencies_hz[i]) for i in p.modes]}
+             for name, p in base.parts.items()}
+    return {"workflow": str(wf.path), "name": wf.name, "status": status,
+            "input_hash": wf.input_hash(), "quick": wf.quick,
+            "overrides": [[p, v] for p, v in wf.overrides], "versions": versions(),
+            "coordinates": list(base.mechanism.coordinates), "links": links,
+            "analyses": analyses, "timings_s": {k: round(v, 3) for k, v in timings.items()},
+            "files": sorted(files),
+            "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}

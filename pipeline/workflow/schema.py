@@ -1,0 +1,297 @@
+"""Workflow YAML schema (pydantic): one machine and what to compute with it.
+
+The reference with an annotated example is ``docs/workflows.md``. Fields are SI
+(m, kg, s, N, rad). Unknown keys are rejected; cross-references (link.frame,
+coordinates, analyses named by plots) are checked after the machine is built,
+where the coordinate names are known.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import Field, field_validator, model_validator
+
+from pipeline.workflow.link_spec import LinkSpec, Mat3, Strict, Vec3
+
+Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*$")]
+Inertia = Annotated[list[float], Field(min_length=6, max_length=6)] | Mat3
+
+
+class FrameSpec(Strict):
+    """A frame fixed to a link: origin (m) and axes in the link's coordinates."""
+
+    origin: Vec3 = Field([0.0, 0.0, 0.0], description="m, link coordinates")
+    z: Vec3 | None = Field(None, description="direction of the frame's z axis (joint axis)")
+    x: Vec3 | None = Field(None, description="direction of the frame's x axis (made normal to z)")
+    on: str | None = Field(None, description="flexible links: spec interface/marker the frame is "
+                                             "fixed to (origin and axes in that frame's axes)")
+
+
+class BoxShape(Strict):
+    type: Literal["box"]
+    size: Vec3 = Field(description="edge lengths, m")
+    center: Vec3 = Field([0.0, 0.0, 0.0], description="m, link coordinates")
+
+
+class CylinderShape(Strict):
+    type: Literal["cylinder"]
+    start: Vec3 = Field(alias="from", description="axis start, m")
+    end: Vec3 = Field(alias="to", description="axis end, m")
+    radius: float = Field(gt=0, description="m")
+
+
+class SticksShape(Strict):
+    type: Literal["sticks"]
+    radius: float = Field(0.02, gt=0, description="tube radius between the frames, m")
+
+
+Shape = Annotated[BoxShape | CylinderShape | SticksShape, Field(discriminator="type")]
+
+
+class GroundLink(Strict):
+    type: Literal["ground"]
+    frames: dict[Name, FrameSpec] = Field(default_factory=dict)
+    shape: Shape | None = None
+
+
+class RigidLink(Strict):
+    """Rigid link: mass properties given, or computed from a meshed ``spec``."""
+
+    type: Literal["rigid"]
+    mass: float | None = Field(None, gt=0, description="kg")
+    com: Vec3 | None = Field(None, description="centre of mass, m, link coordinates")
+    inertia: Inertia | None = Field(
+        None, description="about the COM in link axes, kg m^2: [ixx, iyy, izz, ixy, iyz, ixz] "
+                          "or a 3x3 matrix")
+    spec: str | LinkSpec | None = Field(
+        None, description="link spec (file relative to the workflow, or inline): mass "
+                          "properties and picture from its mesh")
+    spec_overrides: dict[str, Any] = Field(
+        default_factory=dict, description="dotted overrides of the link spec, e.g. "
+                                          "{geometry.mesh_size: 0.02}")
+    frames: dict[Name, FrameSpec] = Field(default_factory=dict)
+    shape: Shape | None = None
+
+    @model_validator(mode="after")
+    def _mass_source(self):
+        given = self.mass is not None
+        if given == (self.spec is not None):
+            raise ValueError("give either mass (with com, inertia) or spec, not both")
+        if given and self.inertia is None:
+            raise ValueError("a rigid link with mass needs inertia (kg m^2 about the COM)")
+        return self
+
+
+class DampingSpec(Strict):
+    ratio: float | None = Field(None, ge=0, description="modal damping ratio of every kept mode")
+    ratios: list[Annotated[float, Field(ge=0)]] | None = Field(
+        None, description="damping ratio per kept mode, by frequency")
+    rayleigh: Annotated[list[float], Field(min_length=2, max_length=2)] | None = Field(
+        None, description="[alpha (1/s), beta (s)]: D = alpha M + beta K")
+
+    @model_validator(mode="after")
+    def _one(self):
+        if sum(v is not None for v in (self.ratio, self.ratios, self.rayleigh)) != 1:
+            raise ValueError("give exactly one of ratio, ratios, rayleigh")
+        return self
+
+
+class FlexibleLink(Strict):
+    """Flexible link reduced from a link spec (gmsh + scikit-fem), modes clamped at its
+    reference interface (the body frame)."""
+
+    type: Literal["flexible"]
+    spec: str | LinkSpec = Field(description="link spec file (relative to the workflow) or inline")
+    spec_overrides: dict[str, Any] = Field(
+        default_factory=dict, description="dotted overrides of the link spec, e.g. "
+                                          "{geometry.mesh_size: 0.02, modes.count: 4}")
+    modes: Annotated[int, Field(ge=0)] | list[Annotated[int, Field(ge=0)]] | None = Field(
+        None, description="kept modes: a count (the lowest n) or 0-based indices; "
+                          "default all the spec computes; 0 makes the link rigid")
+    plane: Literal["xy", "yz", "xz"] | None = Field(
+        None, description="keep only modes moving in this plane of the body frame")
+    damping: DampingSpec | None = None
+    frames: dict[Name, FrameSpec] = Field(
+        default_factory=dict, description="extra frames, each fixed `on` a spec frame")
+
+    @field_validator("frames")
+    @classmethod
+    def _frames_on(cls, value: dict[str, FrameSpec]) -> dict[str, FrameSpec]:
+        missing = [k for k, f in value.items() if f.on is None]
+        if missing:
+            raise ValueError(f"frames {missing}: a flexible link's extra frame needs `on:` "
+                             "(the spec interface or marker it is fixed to)")
+        return value
+
+
+LinkEntry = Annotated[GroundLink | RigidLink | FlexibleLink, Field(discriminator="type")]
+
+
+class JointSpec(Strict):
+    name: Name
+    type: str = Field(description="revolute | prismatic | cylindrical | universal | spherical | "
+                                  "planar | fixed | free")
+    parent: str = Field(description="link.frame of the parent side")
+    child: str = Field(description="link.frame of the child side")
+    initial: list[float] = Field(default_factory=list,
+                                 description="approximate assembly values, rad / m")
+
+    @field_validator("parent", "child")
+    @classmethod
+    def _dotted(cls, value: str) -> str:
+        if value.count(".") < 1 or value.startswith(".") or value.endswith("."):
+            raise ValueError(f"expected 'link.frame', got {value!r}")
+        return value
+
+
+class ForceSpec(Strict, extra="allow"):
+    """A force element; extra keys are the element's fields (pipeline.dynamics.FORCES)."""
+
+    name: Name
+    type: str
+
+
+class InitialSpec(Strict):
+    coordinates: dict[str, float] = Field(default_factory=dict, description="rad / m")
+    velocities: dict[str, float] = Field(default_factory=dict, description="rad/s, m/s")
+
+
+class CaseSpec(Strict):
+    label: str
+    set: dict[str, Any] = Field(default_factory=dict,
+                                description="overrides (dotted paths, as --set)")
+
+
+class _Analysis(Strict):
+    name: Name
+    initial: InitialSpec | None = Field(
+        None, description="this analysis' start (replaces the workflow's initial:)")
+    cases: list[CaseSpec] = Field(default_factory=list)
+    markers: list[str] = Field(default_factory=list, description="link.frame histories to record")
+
+    @field_validator("cases")
+    @classmethod
+    def _labels(cls, value: list[CaseSpec]) -> list[CaseSpec]:
+        labels = [c.label for c in value]
+        dup = sorted({x for x in labels if labels.count(x) > 1})
+        if dup:
+            raise ValueError(f"duplicate case labels {dup}")
+        return value
+
+
+class _Timed(_Analysis):
+    t_end: float = Field(gt=0, description="s")
+    outputs: int = Field(101, ge=2, description="number of output times on [0, t_end]")
+
+
+class KinematicAnalysis(_Timed):
+    type: Literal["kinematic"]
+
+
+class StaticAnalysis(_Analysis):
+    type: Literal["static"]
+    t: float = Field(0.0, description="time at which the drivers are evaluated, s")
+    hold: list[str] = Field(default_factory=list, description="coordinates held fixed")
+
+
+class KinetostaticAnalysis(_Timed):
+    type: Literal["kinetostatic"]
+    inertia: bool = Field(False, description="include inertia forces")
+    reactions: bool = Field(False, description="joint reactions at every output")
+    hold: list[str] | None = Field(None, description="held coordinates (default: every free "
+                                                     "joint coordinate)")
+
+
+class DynamicAnalysis(_Timed):
+    type: Literal["dynamic"]
+    method: str = Field("DOP853", description="DOP853 | Radau | BDF | RK45 | LSODA | "
+                                              "generalized_alpha")
+    rtol: float = Field(1e-8, gt=0)
+    atol: float = Field(1e-10, gt=0)
+    max_step: float | None = Field(None, gt=0, description="s")
+    step: float | None = Field(None, gt=0, description="fixed step (generalized_alpha), s")
+    rho_inf: float = Field(0.8, ge=0, le=1, description="generalized_alpha spectral radius")
+    start: Literal["initial", "static"] = Field(
+        "initial", description="start from the initial state or from static equilibrium")
+
+
+class LinearisedAnalysis(_Analysis):
+    type: Literal["linearised"]
+    start: Literal["initial", "static"] = Field("static")
+    t: float = Field(0.0, description="time at which the drivers are evaluated, s")
+    count: int = Field(10, ge=1, description="number of lowest modes reported")
+    hold: list[str] = Field(default_factory=list, description="coordinates held fixed")
+
+
+Analysis = Annotated[
+    KinematicAnalysis | StaticAnalysis | KinetostaticAnalysis | DynamicAnalysis
+    | LinearisedAnalysis, Field(discriminator="type")]
+
+
+class PlotSpec(Strict):
+    name: Name
+    analysis: str
+    series: list[str] = Field(min_length=1, description="kind:target[:component] histories")
+    x: str = Field("time", description="time or a series")
+    title: str | None = None
+    ylabel: str | None = None
+    cases: list[str] | None = Field(None, description="case labels to draw (default all)")
+
+
+class RenderSpec(Strict):
+    name: Name
+    analysis: str
+    scale: float | Literal["auto"] = Field("auto", description="elastic magnification")
+    camera: Literal["xy", "xz", "yz", "iso"] = "iso"
+    at: list[float] | None = Field(None, description="output times (s) to show; default: "
+                                                     "the last (timed) or every case (static)")
+    case: str | None = Field(None, description="case label (default the first)")
+    title: str | None = None
+
+
+class AnimationSpec(Strict):
+    name: Name
+    analysis: str
+    scale: float | Literal["auto"] = "auto"
+    camera: Literal["xy", "xz", "yz", "iso"] = "iso"
+    format: Literal["gif", "mp4"] = "gif"
+    case: str | None = None
+    fps: int = Field(15, ge=1, le=60)
+    max_frames: int = Field(60, ge=2, le=600)
+
+
+class ExportSpec(Strict):
+    csv: bool = True
+    npz: bool = True
+    vtu: bool = False
+
+
+class OutputSpec(Strict):
+    plots: list[PlotSpec] = Field(default_factory=list)
+    renders: list[RenderSpec] = Field(default_factory=list)
+    animations: list[AnimationSpec] = Field(default_factory=list)
+    exports: ExportSpec = Field(default_factory=ExportSpec)
+
+
+class WorkflowSpec(Strict):
+    name: Name | None = Field(None, description="output folder name (default: the file stem)")
+    description: str = ""
+    gravity: Vec3 = Field([0.0, 0.0, -9.81], description="m/s^2, ground axes")
+    links: dict[Name, LinkEntry] = Field(min_length=2)
+    joints: list[JointSpec] = Field(min_length=1)
+    drivers: dict[str, dict[str, Any]] = Field(
+        default_factory=dict, description="coordinate -> driver mapping (see docs/workflows.md)")
+    forces: list[ForceSpec] = Field(default_factory=list)
+    initial: InitialSpec = Field(default_factory=InitialSpec)
+    analyses: list[Analysis] = Field(min_length=1)
+    outputs: OutputSpec = Field(default_factory=OutputSpec)
+    quick: dict[str, Any] = Field(default_factory=dict,
+                                  description="overrides applied by --quick (as --set)")
+
+    @property
+    def ground(self) -> str:
+        return next(k for k, v in self.links.items() if v.type == "ground")
+
+    def analysis(self, name: str):
+        return next(a for a in self.analyses if a.name == name)

@@ -1,0 +1,114 @@
+"""Named histories of an analysis result: ``kind:target[:component]`` -> values, label, unit.
+
+=======================  ==============================================  ==========
+series                   meaning                                         unit
+=======================  ==============================================  ==========
+time                     output time                                     s
+q:J1.theta (qd:, qdd:)   coordinate (rate, acceleration)                 rad, m
+marker:link.frame:z      marker origin in ground (x, y, z, norm)         m
+deflection:link.frame:z  elastic displacement of the marker, ground axes  m
+energy:total             kinetic, gravity, elastic, forces, dissipated,  J
+                         driver_work, total (dynamic runs)
+driver_force:LCYL.d      force a driver/held coordinate applies          N, N m
+frequency                linearised natural frequencies (x: mode no.)    Hz
+=======================  ==============================================  ==========
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pipeline.core.errors import ConfigError
+from pipeline.kinematics import evaluate_tree
+from pipeline.kinematics.poses import step_local
+
+KINDS = ("time", "q", "qd", "qdd", "marker", "deflection", "energy", "driver_force", "frequency")
+_COMPONENT = {"x": 0, "y": 1, "z": 2}
+
+
+@dataclass(frozen=True)
+class Series:
+    values: np.ndarray
+    label: str
+    unit: str
+
+
+def _coordinate_unit(name: str, order: int) -> str:
+    var = name.rsplit(".", 1)[-1]
+    base = "rad" if var in ("theta", "alpha", "beta", "rx", "ry", "rz") else (
+        "-" if var.startswith("eta") else "m")
+    return base + ("", "/s", "/s²")[order]
+
+
+def marker_positions(mech, q: np.ndarray, link: str, frame: str, elastic_only: bool = False):
+    """(T, 3) ground position of marker ``link.frame`` over the rows of q (T, n); with
+    ``elastic_only`` the displacement due to the link's own modal coordinates (ground axes)."""
+    step = mech.marker(link, frame)
+    li = mech.link_index(link)
+    out = np.empty((q.shape[0], 3))
+    for k, qk in enumerate(q):
+        A = evaluate_tree(mech, qk, derivatives=False).A[step.frm]
+        p = (A @ step_local(step, qk, None, need_d=False)[0])[:3, 3]
+        if elastic_only:
+            q0 = qk.copy()
+            q0[mech.modal_index[li]] = 0.0
+            p = p - (A @ step_local(step, q0, None, need_d=False)[0])[:3, 3]
+        out[k] = p
+    return out
+
+
+def series(result, mech, spec: str) -> Series:
+    """Values (T,) of ``spec`` in ``result`` (an AnalysisResult of ``mech``).
+
+    Raises
+    ------
+    ConfigError
+        Unknown kind, target or component, or a kind the analysis does not produce.
+    """
+    kind, _, rest = spec.partition(":")
+    if kind not in KINDS:
+        raise ConfigError(f"series {spec!r}: kind {kind!r} is not one of {list(KINDS)}")
+    if kind == "time":
+        return Series(result.t, "time", "s")
+    if kind in ("q", "qd", "qdd"):
+        if rest not in result.coordinates:
+            raise ConfigError(f"series {spec!r}: coordinate {rest!r} does not exist; "
+                              f"coordinates: {list(result.coordinates)}")
+        order = ("q", "qd", "qdd").index(kind)
+        arr = (result.q, result.qd, result.qdd)[order]
+        return Series(arr[:, result.coordinates.index(rest)],
+                      rest + ("", " rate", " acceleration")[order], _coordinate_unit(rest, order))
+    if kind in ("marker", "deflection"):
+        target, _, comp = rest.rpartition(":")
+        if not target:
+            target, comp = rest, "norm"
+        link, _, frame = target.partition(".")
+        if comp not in (*_COMPONENT, "norm"):
+            raise ConfigError(f"series {spec!r}: component {comp!r} is not x, y, z or norm")
+        try:
+            P = marker_positions(mech, result.q, link, frame, elastic_only=kind == "deflection")
+        except (ConfigError, KeyError, ValueError) as exc:
+            raise ConfigError(f"series {spec!r}: expected an existing link.frame: {exc}") \
+                from None
+        v = np.linalg.norm(P, axis=1) if comp == "norm" else P[:, _COMPONENT[comp]]
+        what = "elastic deflection" if kind == "deflection" else "position"
+        return Series(v, f"{target} {what} {comp}", "m")
+    if kind == "energy":
+        if not result.energies:
+            raise ConfigError(f"series {spec!r}: analysis '{result.name}' ({result.type}) has no "
+                              "energies (dynamic analyses do)")
+        if rest not in result.energies:
+            raise ConfigError(f"series {spec!r}: expected one of {sorted(result.energies)}")
+        return Series(np.asarray(result.energies[rest]), f"{rest} energy", "J")
+    if kind == "driver_force":
+        if rest not in result.forces:
+            raise ConfigError(f"series {spec!r}: analysis '{result.name}' has actuator forces "
+                              f"for {sorted(result.forces)}")
+        unit = "N m" if _coordinate_unit(rest, 0) == "rad" else "N"
+        return Series(np.asarray(result.forces[rest]), f"{rest} actuator force", unit)
+    f = result.extra.get("frequencies_hz")
+    if f is None:
+        raise ConfigError(f"series {spec!r}: only linearised analyses have frequencies")
+    return Series(np.asarray(f), "natural frequency", "Hz")
