@@ -17,11 +17,13 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from pipeline.core.errors import ConfigError
 from pipeline.core.progress import stage
 from pipeline.workflow.analyses import AnalysisResult, run_analysis
 from pipeline.workflow.build import Machine, build_machine
 from pipeline.workflow.link_build import versions
 from pipeline.workflow.load import Workflow, load_workflow
+from pipeline.workflow.series import check_series
 
 
 @dataclass(frozen=True)
@@ -66,6 +68,17 @@ def _case_machine(wf: Workflow, base: Machine, cache: dict, case, cache_dir, reb
     if m.workflow.case != case.label:  # same overrides, other label
         m = Machine(wf.for_case(case.set, case.label), m.system, m.q0, m.qd0, m.parts)
     return m
+
+
+def check_outputs(wf: Workflow, m: Machine) -> None:
+    """Series of the plots must exist in the built machine and their analysis type."""
+    types = {a.name: a.type for a in wf.spec.analyses}
+    for i, p in enumerate(wf.spec.outputs.plots):
+        for s in ([p.x] if p.x != "time" else []) + list(p.series):
+            try:
+                check_series(s, m.mechanism, types[p.analysis])
+            except ConfigError as exc:
+                raise wf.error("outputs", "plots", i, msg=str(exc)) from None
 
 
 def _swap_in(tmp: Path, final: Path) -> None:
@@ -113,6 +126,7 @@ def run_workflow(workflow: str | Path | Workflow, *, out_root: str | Path = "out
         with stage(f"{wf.name}: build machine"):
             base = build_machine(wf, cache_dir, rebuild)
         timings["build"] = time.perf_counter() - t0
+        check_outputs(wf, base)
         machines, cache, results = {"": base}, {}, {}
         for a in wf.spec.analyses:
             t0 = time.perf_counter()

@@ -112,3 +112,37 @@ def series(result, mech, spec: str) -> Series:
     if f is None:
         raise ConfigError(f"series {spec!r}: only linearised analyses have frequencies")
     return Series(np.asarray(f), "natural frequency", "Hz")
+
+
+def check_series(spec: str, mech, analysis_type: str) -> None:
+    """Fail early (before any analysis runs) on a series that cannot exist.
+
+    Raises
+    ------
+    ConfigError
+        Unknown kind, coordinate, link.frame or component, or a kind the analysis
+        type does not produce.
+    """
+    kind, _, rest = spec.partition(":")
+    if kind not in KINDS:
+        raise ConfigError(f"series {spec!r}: kind {kind!r} is not one of {list(KINDS)}")
+    if kind in ("q", "qd", "qdd") and rest not in mech.coordinates:
+        raise ConfigError(f"series {spec!r}: coordinate {rest!r} does not exist; "
+                          f"coordinates: {list(mech.coordinates)}")
+    if kind in ("marker", "deflection"):
+        target, _, comp = rest.rpartition(":")
+        target, comp = (target, comp) if target else (rest, "norm")
+        link, _, frame = target.partition(".")
+        if link not in mech.link_names or frame not in [
+                f.name for f in mech.links[mech.link_index(link)].frames]:
+            raise ConfigError(f"series {spec!r}: expected an existing link.frame, got "
+                              f"{target!r}")
+        if comp not in (*_COMPONENT, "norm"):
+            raise ConfigError(f"series {spec!r}: component {comp!r} is not x, y, z or norm")
+    if kind == "energy" and analysis_type != "dynamic":
+        raise ConfigError(f"series {spec!r}: only dynamic analyses have energies")
+    if kind == "frequency" and analysis_type != "linearised":
+        raise ConfigError(f"series {spec!r}: only linearised analyses have frequencies")
+    if kind == "driver_force" and analysis_type not in ("dynamic", "kinetostatic"):
+        raise ConfigError(f"series {spec!r}: only dynamic and kinetostatic analyses have "
+                          "actuator forces")

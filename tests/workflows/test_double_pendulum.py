@@ -1,0 +1,114 @@
+"""workflows/double_pendulum.yaml in --quick mode, checked against independent references.
+
+Rigid case: an independent planar Lagrange derivation (sympy) of two rigid bodies whose
+mass, centre of mass and inertia are read from the reduced links' C matrices (the
+mesh's own mass moments), integrated with scipy. Flexible case: energy conservation.
+Linearised rigid case: the closed-form characteristic equation of a compound double
+pendulum.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+from scipy.integrate import solve_ivp
+
+from pipeline.workflow import run_workflow
+from pipeline.workflow.series import series
+
+ROOT = Path(__file__).resolve().parents[2]
+WF = ROOT / "workflows" / "double_pendulum.yaml"
+G = 9.81
+
+pytestmark = pytest.mark.gmsh
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("dp")
+    return run_workflow(WF, out_root=out, quick=True, outputs=False,
+                        sets=["analyses.swing.rtol=1e-10", "analyses.swing.atol=1e-12"])
+
+
+def _rigid_props(C):
+    """mass, planar COM (2,), Izz about the COM from C = int rho r r^T dV."""
+    m = C[3, 3]
+    c = C[:3, 3] / m
+    Izz_origin = C[0, 0] + C[1, 1]
+    return m, c[:2], Izz_origin - m * (c[0] ** 2 + c[1] ** 2)
+
+
+def _sympy_reference(p1, p2, L, y0, t):
+    q1, q2, w1, w2 = sp.symbols("q1 q2 w1 w2")
+    qs, ws = sp.Matrix([q1, q2]), sp.Matrix([w1, w2])
+
+    def rot(a):
+        return sp.Matrix([[sp.cos(a), -sp.sin(a)], [sp.sin(a), sp.cos(a)]])
+
+    (m1, c1, I1), (m2, c2, I2) = p1, p2
+    g1 = rot(q1) * sp.Matrix(c1)
+    g2 = rot(q1) * sp.Matrix([L, 0]) + rot(q1 + q2) * sp.Matrix(c2)
+    v1, v2 = g1.jacobian(qs) * ws, g2.jacobian(qs) * ws
+    T = (m1 * v1.dot(v1) + I1 * w1 ** 2 + m2 * v2.dot(v2) + I2 * (w1 + w2) ** 2) / 2
+    V = G * (m1 * g1[1] + m2 * g2[1])
+    M = sp.hessian(T, ws)
+    rhs = -(sp.Matrix([T]).jacobian(ws).jacobian(qs) * ws).T + sp.Matrix([T - V]).jacobian(qs)
+    Mf, Ff = sp.lambdify([q1, q2, w1, w2], M), sp.lambdify([q1, q2, w1, w2], rhs.T)
+
+    def f(_, y):
+        acc = np.linalg.solve(np.asarray(Mf(*y), float), np.ravel(np.asarray(Ff(*y), float)))
+        return np.concatenate([y[2:], acc])
+
+    sol = solve_ivp(f, (t[0], t[-1]), y0, method="DOP853", t_eval=t, rtol=1e-12, atol=1e-12)
+    assert sol.success
+    return sol.y[:2].T
+
+
+def test_rigid_case_matches_independent_lagrange(run):
+    r = run.result("swing", "rigid")
+    m = run.machines["rigid"]
+    assert r.success, r.message
+    props = [_rigid_props(np.asarray(m.parts[k].reduced.C)) for k in ("upper", "lower")]
+    L = float(m.parts["upper"].reduced.frame("tip").pose[0, 3])
+    ref = _sympy_reference(*props, L, np.zeros(4), r.t)
+    err = np.abs(r.q - ref).max()
+    assert err < 1e-7, err
+    assert np.ptp(ref[:, 0]) > 0.2  # a real swing
+
+
+def test_flexible_case_conserves_energy_and_bends(run):
+    r = run.result("swing", "flexible")
+    mech = run.machines["flexible"].mechanism
+    assert r.success, r.message
+    e = series(r, mech, "energy:total").values
+    scale = np.abs(series(r, mech, "energy:kinetic").values).max()
+    assert np.abs(e - e[0]).max() < 1e-7 * scale
+    d = series(r, mech, "deflection:lower.tip:norm").values
+    assert 1e-5 < d.max() < 0.05  # bends, elastically small
+    assert r.extra["closure_residual"].max() < 1e-10
+
+
+def test_linearised_rigid_frequencies_match_closed_form(tmp_path_factory):
+    out = tmp_path_factory.mktemp("dp_lin")
+    res = run_workflow(WF, out_root=out, quick=True, outputs=False,
+                       sets=["links.upper.modes=0", "links.lower.modes=0",
+                             "analyses.swing.t_end=0.01", "analyses.swing.outputs=2"])
+    r = res.result("modes")
+    assert r.success, r.message
+    m = res.machine
+    (m1, c1, I1), (m2, c2, I2) = [_rigid_props(np.asarray(m.parts[k].reduced.C))
+                                  for k in ("upper", "lower")]
+    L = float(m.parts["upper"].reduced.frame("tip").pose[0, 3])
+    # hanging straight down: linear M and K of the compound double pendulum
+    a, b = np.hypot(*c1), np.hypot(*c2)
+    M = np.array([[I1 + m1 * a ** 2 + m2 * L ** 2 + I2 + m2 * b ** 2 + 2 * m2 * L * c2[0],
+                   I2 + m2 * b ** 2 + m2 * L * c2[0]],
+                  [I2 + m2 * b ** 2 + m2 * L * c2[0], I2 + m2 * b ** 2]])
+    K = G * np.array([[m1 * c1[0] + m2 * (L + c2[0]), m2 * c2[0]], [m2 * c2[0], m2 * c2[0]]])
+    w2 = np.sort(np.linalg.eigvals(np.linalg.solve(M, K)).real)
+    f_ref = np.sqrt(w2) / (2 * np.pi)
+    assert np.allclose(r.extra["frequencies_hz"][:2], f_ref, rtol=1e-6), (
+        r.extra["frequencies_hz"][:2], f_ref)

@@ -1,0 +1,127 @@
+"""Bad workflows fail with file:line: yaml.path: what was expected, and leave nothing behind."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from pipeline.cli import main
+from pipeline.core.errors import ConfigError
+from pipeline.workflow import load_workflow, run_workflow
+from pipeline.workflow.overrides import apply_overrides, parse_assignment
+
+GOOD = """\
+name: tiny
+gravity: [0, -9.81, 0]
+links:
+  ground:
+    type: ground
+    frames:
+      O: {origin: [0, 0, 0]}
+  arm:
+    type: rigid
+    mass: 2.0
+    com: [0.5, 0, 0]
+    inertia: [0.01, 0.2, 0.2, 0, 0, 0]
+    frames:
+      A: {origin: [0, 0, 0]}
+      B: {origin: [1, 0, 0]}
+joints:
+  - {name: J1, type: revolute, parent: ground.O, child: arm.A, initial: [0.3]}
+forces:
+  - {name: spring, type: joint_spring_damper, coordinate: J1.theta, stiffness: 5.0}
+analyses:
+  - name: swing
+    type: dynamic
+    t_end: 0.5
+    outputs: 11
+    markers: [arm.B]
+outputs:
+  plots:
+    - {name: angle, analysis: swing, series: [q:J1.theta]}
+quick:
+  analyses.swing.t_end: 0.1
+"""
+
+
+def _write(tmp_path: Path, text: str) -> Path:
+    p = tmp_path / "wf.yaml"
+    p.write_text(text)
+    return p
+
+
+def _line_of(text: str, needle: str) -> int:
+    return next(i + 1 for i, line in enumerate(text.splitlines()) if needle in line)
+
+
+@pytest.mark.parametrize("old, new, needle, path_text, expect", [
+    ("    mass: 2.0", "    mas: 2.0", "mas: 2.0", "links.arm", "unknown key"),
+    ("  - {name: J1, type: revolute, parent: ground.O, child: arm.A, initial: [0.3]}",
+     "  - {name: J1, type: revolute, parent: ground.O, child: arm.C, initial: [0.3]}",
+     "child: arm.C", "joints[0].child", "has no frame 'C'"),
+    ("coordinate: J1.theta", "coordinate: J1.phi", "J1.phi", "forces[0].coordinate",
+     "does not exist"),
+    ("    t_end: 0.5", "    t_end: -0.5", "t_end: -0.5", "analyses[0].t_end", "greater than 0"),
+    ("series: [q:J1.theta]", "series: [q:J9.theta]", "q:J9.theta", "outputs.plots[0]",
+     "does not exist"),
+    ("stiffness: 5.0}", "stiffnes: 5.0}", "stiffnes", "forces[0]", "unknown field"),
+    ("    type: dynamic", "    type: dynamc", "type: dynamc", "analyses[0]", "dynamic"),
+])
+def test_errors_name_file_line_and_path(tmp_path, old, new, needle, path_text, expect):
+    text = GOOD.replace(old, new)
+    assert text != GOOD
+    wf_path = _write(tmp_path, text)
+    out = tmp_path / "out"
+    with pytest.raises(ConfigError) as info:
+        run_workflow(wf_path, out_root=out, cache_dir=tmp_path / "cache")
+    msg = str(info.value)
+    m = re.search(rf"{re.escape(str(wf_path))}:(\d+): ", msg)
+    assert m, msg
+    line = int(m.group(1))
+    # the line of the offending entry (or of the item that contains it)
+    assert line <= _line_of(text, needle) and line >= _line_of(text, needle) - 6, msg
+    assert path_text in msg and expect in msg, msg
+    assert not (out / "tiny").exists()
+    assert not any(p.name.startswith(".tiny") for p in out.glob(".*")) if out.exists() else True
+
+
+def test_good_workflow_runs_and_quick_applies(tmp_path):
+    wf = load_workflow(_write(tmp_path, GOOD), quick=True)
+    assert wf.spec.analyses[0].t_end == 0.1
+    res = run_workflow(wf, out_root=tmp_path / "out", outputs=False)
+    r = res.result("swing")
+    assert r.success and r.t[-1] == pytest.approx(0.1)
+    assert (tmp_path / "out" / "tiny" / "manifest.json").is_file()
+    assert res.manifest["status"] == "ok" and res.manifest["quick"] is True
+
+
+def test_set_overrides_address_items_by_name_and_dotted_keys():
+    data = {"analyses": [{"name": "a", "t_end": 1.0}, {"name": "b", "t_end": 2.0}],
+            "drivers": {"LUFF.theta": {"type": "constant", "value": 1.0}}}
+    out = apply_overrides(data, [parse_assignment("analyses.b.t_end=0.5"),
+                                 parse_assignment("drivers.LUFF.theta.value=[1, 2]")])
+    assert out["analyses"][1]["t_end"] == 0.5 and out["analyses"][0]["t_end"] == 1.0
+    assert out["drivers"]["LUFF.theta"]["value"] == [1, 2]
+    assert data["analyses"][1]["t_end"] == 2.0  # input untouched
+    with pytest.raises(ConfigError, match="no item named 'c'"):
+        apply_overrides(data, [("analyses.c.t_end", 1.0)])
+    with pytest.raises(ConfigError, match="expected path=value"):
+        parse_assignment("analyses.b.t_end")
+
+
+def test_set_value_is_data_not_code(tmp_path):
+    # a would-be expression stays a string, which the schema then rejects
+    with pytest.raises(ConfigError, match="links.arm.mass"):
+        load_workflow(_write(tmp_path, GOOD), sets=["links.arm.mass=__import__('os').getpid()"])
+
+
+def test_cli_validate_and_error_exit_code(tmp_path, capsys):
+    p = _write(tmp_path, GOOD)
+    assert main(["validate", str(p)]) == 0
+    assert "valid workflow 'tiny'" in capsys.readouterr().out
+    bad = _write(tmp_path, GOOD.replace("    mass: 2.0", "    mass: -2.0"))
+    assert main(["validate", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert f"{bad}:{_line_of(GOOD, 'mass: 2.0')}: links.arm" in err
