@@ -15,13 +15,21 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, default=Path("output"),
                         help="results go to OUT/<name>/ (default: output)")
     parser.add_argument("--rebuild", action="store_true", help="ignore cached reduced links")
+    parser.add_argument("--workers", type=int, default=0,
+                        help="processes for analysis cases (default: one per core)")
 
 
 def run(args: argparse.Namespace) -> int:
+    import logging
+    import os
+
     from pipeline.workflow import run_workflow
 
+    # stage timings are logged at INFO: show them, so long runs show where they are
+    logging.getLogger("pipeline.core.progress").setLevel(logging.INFO)
+    workers = args.workers if args.workers > 0 else (os.cpu_count() or 1)
     res = run_workflow(args.workflow, out_root=args.out, sets=args.sets, quick=args.quick,
-                       rebuild=args.rebuild)
+                       rebuild=args.rebuild, workers=workers)
     man = res.manifest
     print(f"{res.workflow.name}: {man['status']} in {man['timings_s']['total']:.1f} s "
           f"-> {res.out_dir}")

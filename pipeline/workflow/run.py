@@ -81,6 +81,31 @@ def check_outputs(wf: Workflow, m: Machine) -> None:
                 raise wf.error("outputs", "plots", i, msg=str(exc)) from None
 
 
+def _case_result(wf: Workflow, case_set, label, analysis: str, cache_dir, rebuild):
+    """One (analysis, case) in a worker process: build the case's machine and run."""
+    case_wf = wf.for_case(case_set, label) if label else wf
+    return run_analysis(build_machine(case_wf, cache_dir, rebuild), analysis)
+
+
+def _run_parallel(wf, base, tasks, cache, machines, cache_dir, rebuild, workers, timings):
+    """Analysis cases in ``workers`` processes (dask); machines for the outputs are rebuilt
+    here from the cached reductions (a System holds mapping proxies, which do not pickle)."""
+    import dask
+
+    jobs = [dask.delayed(_case_result)(wf, case.set if case else {}, case.label if case else "",
+                                       a.name, cache_dir, rebuild) for a, case in tasks]
+    t0 = time.perf_counter()
+    with stage(f"{wf.name}: {len(jobs)} analysis cases on {workers} processes"):
+        done = dask.compute(*jobs, scheduler="processes", num_workers=workers)
+    timings["analyses (parallel)"] = time.perf_counter() - t0
+    results = {}
+    for (a, case), r in zip(tasks, done):
+        m = _case_machine(wf, base, cache, case, cache_dir, rebuild)
+        machines[m.workflow.case] = m
+        results.setdefault(a.name, []).append(r)
+    return results
+
+
 def _swap_in(tmp: Path, final: Path) -> None:
     old = final.with_name(f".{final.name}.old-{os.getpid()}")
     if final.exists():
@@ -92,7 +117,7 @@ def _swap_in(tmp: Path, final: Path) -> None:
 
 def run_workflow(workflow: str | Path | Workflow, *, out_root: str | Path = "output",
                  sets=(), quick: bool = False, cache_dir: str | Path | None = None,
-                 rebuild: bool = False, outputs: bool = True) -> RunResult:
+                 rebuild: bool = False, outputs: bool = True, workers: int = 1) -> RunResult:
     """Run every analysis of a workflow and write its outputs.
 
     Parameters
@@ -103,6 +128,7 @@ def run_workflow(workflow: str | Path | Workflow, *, out_root: str | Path = "out
     cache_dir : reduced-link cache (default ``out_root/links``).
     rebuild : ignore cached reduced links.
     outputs : write plots, renders and exports (False: results only, for tests).
+    workers : processes for the analysis cases (dask; 1 runs them in this process).
 
     Raises
     ------
@@ -127,17 +153,22 @@ def run_workflow(workflow: str | Path | Workflow, *, out_root: str | Path = "out
             base = build_machine(wf, cache_dir, rebuild)
         timings["build"] = time.perf_counter() - t0
         check_outputs(wf, base)
-        machines, cache, results = {"": base}, {}, {}
-        for a in wf.spec.analyses:
-            t0 = time.perf_counter()
-            results[a.name] = []
-            for case in (a.cases or [None]):
+        machines, cache = {"": base}, {}
+        tasks = [(a, case) for a in wf.spec.analyses for case in (a.cases or [None])]
+        if workers > 1 and len(tasks) > 1:
+            results = _run_parallel(wf, base, tasks, cache, machines, cache_dir, rebuild,
+                                    workers, timings)
+        else:
+            results = {}
+            for a, case in tasks:
+                t0 = time.perf_counter()
                 label = f" [{case.label}]" if case else ""
                 with stage(f"{wf.name}: {a.type} analysis '{a.name}'{label}"):
                     m = _case_machine(wf, base, cache, case, cache_dir, rebuild)
                     machines[m.workflow.case] = m
-                    results[a.name].append(run_analysis(m, a.name))
-            timings[f"analysis:{a.name}"] = time.perf_counter() - t0
+                    results.setdefault(a.name, []).append(run_analysis(m, a.name))
+                key = f"analysis:{a.name}"
+                timings[key] = timings.get(key, 0.0) + time.perf_counter() - t0
         files: list[str] = []
         if outputs:
             files = write_outputs(tmp, wf, machines, results, timings)
