@@ -24,6 +24,9 @@ def run(args: argparse.Namespace) -> int:
           f"{len(spec.joints)} joints, {len(spec.forces)} force elements, "
           f"{len(spec.analyses)} analyses ({', '.join(a.name for a in spec.analyses)})")
     if args.build:
+        from pipeline.workflow.run import check_outputs
+
         m = build_machine(wf)
+        check_outputs(wf, m)
         print(f"built: {m.mechanism.n} coordinates ({', '.join(m.mechanism.coordinates)})")
     return 0

@@ -138,12 +138,12 @@ def check_references(wf: Workflow) -> None:
             if names.index(n) != i:
                 raise wf.error(key, i, "name", msg=f"duplicate name {n!r}")
     known = [a.name for a in spec.analyses]
-    for kind in ("plots", "renders", "animations"):
+    for kind in ("plots", "renders", "animations", "convergence"):
         for i, o in enumerate(getattr(spec.outputs, kind)):
             if o.analysis not in known:
                 raise wf.error("outputs", kind, i, "analysis",
                                msg=f"expected one of the analyses {known}, got {o.analysis!r}")
-    names = [o.name for k in ("plots", "renders", "animations")
+    names = [o.name for k in ("plots", "renders", "animations", "convergence")
              for o in getattr(spec.outputs, k)]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:

@@ -247,6 +247,17 @@ def _vtu(folder, machines, results) -> list[str]:
     return files
 
 
+def _convergence(folder, machines, results, c) -> list[str]:
+    from pipeline.post.study_plot import plot_convergence
+    from pipeline.workflow.study import convergence, write_convergence_csv
+
+    conv = convergence(results[c.analysis], machines, c.series, c.reference)
+    write_convergence_csv(folder / f"{c.name}.csv", conv)
+    plot_convergence(folder / f"{c.name}.png", conv.labels, conv.relative,
+                     reference=conv.reference, title=c.title)
+    return [f"{c.name}.csv", f"{c.name}.png"]
+
+
 def write_outputs(folder: Path, wf, machines, results, timings: dict) -> list[str]:
     """All requested outputs of a run into ``folder``; returns their relative names."""
     files = []
@@ -267,6 +278,10 @@ def write_outputs(folder: Path, wf, machines, results, timings: dict) -> list[st
         for i, an in enumerate(outs.animations):
             files.append(_animate(folder, wf, machines, results, i, an))
     timings["renders"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    for c in outs.convergence:
+        files += _convergence(folder, machines, results, c)
+    timings["studies"] = time.perf_counter() - t0
     if outs.exports.vtu:
         t0 = time.perf_counter()
         with stage(f"{wf.name}: ParaView series"):

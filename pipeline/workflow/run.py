@@ -79,6 +79,20 @@ def check_outputs(wf: Workflow, m: Machine) -> None:
                 check_series(s, m.mechanism, types[p.analysis])
             except ConfigError as exc:
                 raise wf.error("outputs", "plots", i, msg=str(exc)) from None
+    for i, c in enumerate(wf.spec.outputs.convergence):
+        a = wf.spec.analysis(c.analysis)
+        labels = [x.label for x in a.cases]
+        if len(labels) < 2:
+            raise wf.error("outputs", "convergence", i, "analysis",
+                           msg=f"analysis {a.name!r} needs at least two cases to compare")
+        if c.reference is not None and c.reference not in labels:
+            raise wf.error("outputs", "convergence", i, "reference",
+                           msg=f"expected one of the cases {labels}, got {c.reference!r}")
+        for s in c.series:
+            try:
+                check_series(s, m.mechanism, a.type)
+            except ConfigError as exc:
+                raise wf.error("outputs", "convergence", i, msg=str(exc)) from None
 
 
 def _case_result(wf: Workflow, case_set, label, analysis: str, cache_dir, rebuild):

@@ -261,6 +261,16 @@ class AnimationSpec(Strict):
     max_frames: int = Field(60, ge=2, le=600)
 
 
+class ConvergenceSpec(Strict):
+    """Mode-truncation (or any case) study: how far each case is from a reference case."""
+
+    name: Name
+    analysis: str
+    series: list[str] = Field(min_length=1, description="histories compared")
+    reference: str | None = Field(None, description="reference case label (default the last)")
+    title: str | None = None
+
+
 class ExportSpec(Strict):
     csv: bool = True
     npz: bool = True
@@ -271,6 +281,7 @@ class OutputSpec(Strict):
     plots: list[PlotSpec] = Field(default_factory=list)
     renders: list[RenderSpec] = Field(default_factory=list)
     animations: list[AnimationSpec] = Field(default_factory=list)
+    convergence: list[ConvergenceSpec] = Field(default_factory=list)
     exports: ExportSpec = Field(default_factory=ExportSpec)
 
 

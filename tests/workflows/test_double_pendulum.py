@@ -27,10 +27,8 @@ pytestmark = pytest.mark.gmsh
 
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("dp")
-    return run_workflow(WF, out_root=out, quick=True, outputs=False,
-                        sets=["analyses.swing.rtol=1e-10", "analyses.swing.atol=1e-12"])
+def run(quick_run):
+    return quick_run("double_pendulum")
 
 
 def _rigid_props(C):

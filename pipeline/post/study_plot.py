@@ -1,0 +1,45 @@
+"""Bar chart of a case study: relative RMS difference of each case from the reference."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.core.atomic import atomic_path
+
+
+def plot_convergence(path: str | Path, labels, relative: dict, *, reference: str,
+                     title: str | None = None) -> Path:
+    """PNG: one group of bars per case, one bar per series, log scale (reference omitted).
+
+    Parameters
+    ----------
+    labels : (k,) case labels.  relative : series -> (k,) relative RMS difference (-).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    keep = [i for i, lab in enumerate(labels) if lab != reference]
+    fig, ax = plt.subplots(figsize=(7.5, 4.5), dpi=110)
+    width = 0.8 / max(len(relative), 1)
+    x = np.arange(len(keep))
+    for j, (name, values) in enumerate(relative.items()):
+        v = np.asarray(values, dtype=float)[keep]
+        ax.bar(x + (j - (len(relative) - 1) / 2) * width, np.maximum(v, 1e-16), width,
+               label=name)
+    ax.set_xticks(x, [labels[i] for i in keep])
+    ax.set_yscale("log")
+    ax.set_ylabel(f"RMS difference from '{reference}' / RMS of '{reference}', -")
+    ax.set_xlabel("case")
+    ax.set_title(title or f"Convergence towards '{reference}'")
+    ax.grid(True, axis="y", which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png")
+    plt.close(fig)
+    return path
