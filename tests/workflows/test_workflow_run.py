@@ -140,3 +140,55 @@ def test_input_hash_follows_the_inputs(tmp_path):
     assert load_workflow(p, sets=["analyses.turn.t_end=2"]).input_hash() != h0
     p.write_text(FOURBAR.replace("mass: 3.0", "mass: 3.1"))
     assert load_workflow(p).input_hash() != h0
+
+
+MESHED = """\
+name: meshed
+gravity: [0, -9.81, 0]
+links:
+  ground:
+    type: ground
+    frames: {O: {origin: [0, 0, 0]}}
+  bar:
+    type: rigid
+    spec:
+      name: small_bar
+      geometry:
+        type: solid
+        recipe: bar
+        params: {L: 0.3, b: 0.02, h: 0.01}
+        mesh_size: 0.01
+        order: 2
+      material: {E: 2.1e11, nu: 0.3, rho: 7850}
+      interfaces:
+        - {name: root, selector: {type: group, name: end_x0}, origin: [0, 0, 0],
+           z_axis: [0, 0, 1], x_axis: [1, 0, 0]}
+      reference: root
+      modes: {count: 2}
+    spec_overrides: {geometry.mesh_size: 0.02}
+    frames:
+      pin: {on: root, origin: [0, 0, 0.005]}
+joints:
+  - {name: J1, type: revolute, parent: ground.O, child: bar.root}
+analyses:
+  - {name: rest, type: static, initial: {coordinates: {J1.theta: -1.4}}}
+"""
+
+
+@pytest.mark.gmsh
+def test_rigid_link_from_a_mesh_has_the_solid_s_mass_properties(tmp_path):
+    p = tmp_path / "meshed.yaml"
+    p.write_text(MESHED)
+    res = run_workflow(p, out_root=tmp_path / "out", cache_dir=tmp_path / "links",
+                       outputs=False)
+    m = res.machine
+    assert m.mechanism.n == 1  # rigid: no modal coordinates although the spec computes 2
+    C = np.asarray(m.system.bodies["bar"].C)
+    L, b, h, rho = 0.3, 0.02, 0.01, 7850.0
+    mass = rho * L * b * h
+    assert C[3, 3] == pytest.approx(mass, rel=1e-10)
+    assert C[0, 3] == pytest.approx(mass * L / 2, rel=1e-10)
+    assert C[0, 0] == pytest.approx(mass * L ** 2 / 3, rel=1e-10)  # int rho x^2 dV
+    assert "pin" in [f.name for f in m.mechanism.links[m.mechanism.link_index("bar")].frames]
+    r = res.result("rest")
+    assert r.success and r.q[0, 0] == pytest.approx(-np.pi / 2, abs=1e-9)  # hangs down
