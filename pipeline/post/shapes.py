@@ -1,0 +1,70 @@
+"""What a link looks like in pictures: points in the body frame, triangles or lines, and
+the displacement fields of the kept modes (numpy only; no pyvista here)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pipeline.post.primitives import cylinder_surface
+
+
+@dataclass(frozen=True)
+class LinkShape:
+    """Picture of one link.
+
+    Attributes
+    ----------
+    link : mechanism link name.
+    points : (N, 3) body-frame points, m.
+    triangles : (F, 3) point indices, or None.  lines : (L, 2) point indices, or None.
+    modes : (k, N, 3) displacement per unit modal coordinate (body frame, m), in the
+        order of the link's modal coordinates in the mechanism; None for a rigid link.
+    """
+
+    link: str
+    points: np.ndarray
+    triangles: np.ndarray | None = None
+    lines: np.ndarray | None = None
+    modes: np.ndarray | None = None
+
+
+def shape_from_reduced(reduced, modes=None, link: str | None = None) -> LinkShape:
+    """Surface (solids) or centre line (beams) of a ReducedLink, with the kept modes'
+    fields (``modes``: indices in the mechanism's order; default all, [] = rigid)."""
+    idx = list(range(reduced.n_modes)) if modes is None else list(modes)
+    fields = np.asarray(reduced.mode_shapes)[idx] if idx else None
+    surface = np.asarray(reduced.surface)
+    if surface.size:
+        tri = surface[:, :3].astype(int)  # corner nodes: a linear surface is enough
+        return LinkShape(link or reduced.name, np.asarray(reduced.nodes, float), tri, None,
+                         fields)
+    lines = np.asarray(reduced.cells)[:, :2].astype(int)
+    return LinkShape(link or reduced.name, np.asarray(reduced.nodes, float), None, lines, fields)
+
+
+def shape_from_surface(link: str, points, triangles) -> LinkShape:
+    """Rigid link drawn as a given triangulated surface (body frame, m)."""
+    return LinkShape(link, np.asarray(points, float), np.asarray(triangles, int))
+
+
+def stick_shape(link, radius: float = 0.02) -> LinkShape:
+    """Rigid link with no geometry: tubes from the body origin to each frame origin
+    (a lone body frame becomes a small sphere-like stub)."""
+    origins = [np.asarray(f.pose)[:3, 3] for f in link.frames]
+    origins = [o for o in origins if np.linalg.norm(o) > 1e-9]
+    pts, tris, n0 = [], [], 0
+    ends = [(np.zeros(3), o) for o in origins]
+    if len(origins) >= 2:  # also join consecutive frames: links read as plates, not stars
+        ends += [(origins[i], origins[i + 1]) for i in range(len(origins) - 1)]
+    if not ends:
+        ends = [(np.array([-radius, 0.0, 0.0]), np.array([radius, 0.0, 0.0]))]
+    for a, b in ends:
+        if np.linalg.norm(b - a) < 1e-9:
+            continue
+        p, t = cylinder_surface(a, b, radius, n=12)
+        pts.append(p)
+        tris.append(t + n0)
+        n0 += len(p)
+    return LinkShape(link.name, np.vstack(pts), np.vstack(tris))

@@ -1,0 +1,63 @@
+"""ParaView time series of a machine: one VTU per output time (meshio) and a PVD index."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from pipeline.core.atomic import atomic_open
+from pipeline.post.scene import posed_points
+
+
+def machine_grid(mech, shapes, q, scale: float = 1.0):
+    """(points (N, 3), cells [(type, array)], point data, cell data) of all links at q."""
+    pts, tri, lines, disp, tri_id, line_id, n0 = [], [], [], [], [], [], 0
+    for i, (name, s) in enumerate(shapes.items()):
+        P, _ = posed_points(mech, s, q, scale)
+        P0, _ = posed_points(mech, s, q, 0.0)
+        pts.append(P)
+        disp.append((P - P0) / scale if scale else np.zeros_like(P))
+        if s.triangles is not None:
+            tri.append(s.triangles + n0)
+            tri_id.append(np.full(len(s.triangles), i))
+        if s.lines is not None:
+            lines.append(s.lines + n0)
+            line_id.append(np.full(len(s.lines), i))
+        n0 += len(P)
+    cells, ids = [], []
+    if tri:
+        cells.append(("triangle", np.vstack(tri)))
+        ids.append(np.concatenate(tri_id))
+    if lines:
+        cells.append(("line", np.vstack(lines)))
+        ids.append(np.concatenate(line_id))
+    d = np.vstack(disp)
+    return (np.vstack(pts), cells, {"displacement": d,
+                                    "displacement_magnitude": np.linalg.norm(d, axis=1)},
+            {"link_id": ids})
+
+
+def write_vtk_series(folder, mech, shapes, t, Q, *, scale: float = 1.0, name: str = "machine",
+                     max_steps: int = 200) -> Path:
+    """Write ``folder/<name>_<k>.vtu`` (at most ``max_steps``, evenly thinned) and
+    ``folder/<name>.pvd``; point data: elastic displacement (ground axes, m) and its
+    magnitude; cell data: link_id (index in ``shapes``). Returns the .pvd path."""
+    import meshio
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    t = np.asarray(t, dtype=float)
+    picks = np.unique(np.linspace(0, len(t) - 1, min(max_steps, len(t))).round().astype(int))
+    entries = []
+    for k in picks:
+        P, cells, pdata, cdata = machine_grid(mech, shapes, Q[k], scale)
+        fname = f"{name}_{k:05d}.vtu"
+        meshio.write(folder / fname, meshio.Mesh(P, cells, point_data=pdata, cell_data=cdata))
+        entries.append(f'    <DataSet timestep="{t[k]:.9g}" part="0" file={quoteattr(fname)}/>')
+    pvd = folder / f"{name}.pvd"
+    with atomic_open(pvd, "w") as fh:
+        fh.write('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
+                 "  <Collection>\n" + "\n".join(entries) + "\n  </Collection>\n</VTKFile>\n")
+    return pvd
