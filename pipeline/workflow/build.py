@@ -190,6 +190,8 @@ def build_links(wf: Workflow, cache_dir: Path, rebuild: bool = False):
         if entry.spec is None:  # rigid with given mass properties
             frames = {k: frame_pose(f, f"{where}.frames.{k}") for k, f in entry.frames.items()}
             links.append(rigid_link(name, frames))
+            if entry.mass is None:
+                continue  # massless intermediate link
             com = entry.com if entry.com is not None else [0.0, 0.0, 0.0]
             try:
                 bodies[name] = BodyMass.rigid(entry.mass, com, _inertia(entry.inertia))

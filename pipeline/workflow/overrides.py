@@ -26,6 +26,11 @@ def parse_assignment(text: str) -> tuple[str, Any]:
         value = yaml.safe_load(raw) if raw.strip() else None
     except yaml.YAMLError as exc:
         raise ConfigError(f"--set {text!r}: value is not a YAML scalar or list: {exc}") from None
+    if isinstance(value, str):
+        from pipeline.workflow.yaml_io import _FLOAT_12
+
+        if _FLOAT_12.fullmatch(value.strip()):  # YAML 1.2 float such as 4.8e5
+            value = float(value)
     return path.strip(), value
 
 

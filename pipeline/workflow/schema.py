@@ -56,7 +56,8 @@ class GroundLink(Strict):
 
 
 class RigidLink(Strict):
-    """Rigid link: mass properties given, or computed from a meshed ``spec``."""
+    """Rigid link: mass properties given, computed from a meshed ``spec``, or neither (a
+    massless intermediate link, e.g. between the joints of a heave-pitch-roll chain)."""
 
     type: Literal["rigid"]
     mass: float | None = Field(None, gt=0, description="kg")
@@ -76,10 +77,12 @@ class RigidLink(Strict):
     @model_validator(mode="after")
     def _mass_source(self):
         given = self.mass is not None
-        if given == (self.spec is not None):
+        if given and self.spec is not None:
             raise ValueError("give either mass (with com, inertia) or spec, not both")
         if given and self.inertia is None:
             raise ValueError("a rigid link with mass needs inertia (kg m^2 about the COM)")
+        if not given and (self.com is not None or self.inertia is not None):
+            raise ValueError("com and inertia need mass")
         return self
 
 

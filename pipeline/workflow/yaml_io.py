@@ -8,6 +8,7 @@ PyYAML silently keeps the last one).
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +18,7 @@ from pydantic import ValidationError
 from pipeline.core.errors import ConfigError
 
 PathKey = tuple[str | int, ...]
+_FLOAT_12 = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)")
 
 
 def _walk(node: yaml.Node, path: PathKey, lines: dict[PathKey, int], source: str) -> Any:
@@ -33,8 +35,12 @@ def _walk(node: yaml.Node, path: PathKey, lines: dict[PathKey, int], source: str
         return out
     if isinstance(node, yaml.SequenceNode):
         return [_walk(v, path + (i,), lines, source) for i, v in enumerate(node.value)]
-    # Resolve scalars with the safe loader's rules (numbers, bools, null).
-    return yaml.safe_load(yaml.serialize(node))
+    # Resolve scalars with the safe loader's rules (numbers, bools, null), plus YAML 1.2
+    # floats such as 4.8e5 that YAML 1.1 reads as strings (engineers write them so).
+    value = yaml.safe_load(yaml.serialize(node))
+    if isinstance(value, str) and node.style is None and _FLOAT_12.fullmatch(value):
+        return float(value)
+    return value
 
 
 def load_yaml(path: str | Path) -> tuple[Any, dict[PathKey, int]]:

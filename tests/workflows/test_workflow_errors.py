@@ -125,3 +125,13 @@ def test_cli_validate_and_error_exit_code(tmp_path, capsys):
     assert main(["validate", str(bad)]) == 2
     err = capsys.readouterr().err
     assert f"{bad}:{_line_of(GOOD, 'mass: 2.0')}: links.arm" in err
+
+
+def test_exponent_floats_without_a_dot_or_sign_are_numbers(tmp_path):
+    # YAML 1.1 (PyYAML) reads 5e1 as a string; engineers write it as a number
+    wf = load_workflow(_write(tmp_path, GOOD.replace("stiffness: 5.0}", "stiffness: 5e1}")),
+                       sets=["analyses.swing.t_end=2e-1"])
+    assert wf.spec.forces[0].model_extra["stiffness"] == 50.0
+    assert wf.spec.analyses[0].t_end == 0.2
+    quoted = load_workflow(_write(tmp_path, GOOD.replace("stiffness: 5.0}", "stiffness: '5e1'}")))
+    assert quoted.spec.forces[0].model_extra["stiffness"] == "5e1"  # quoted stays text
