@@ -44,6 +44,15 @@ def _polydata(pv, shape, P):
 
 
 def _camera(plotter, camera):
+    """Named view, or a view direction (3,) (from the scene towards the camera; z up)."""
+    if not isinstance(camera, str):
+        v = np.asarray(camera, dtype=float)
+        if v.shape != (3,) or not np.linalg.norm(v) > 0:
+            raise ConfigError(f"camera: expected a name {_CAMERAS} or a direction [x, y, z], "
+                              f"got {camera!r}")
+        up = (0.0, 0.0, 1.0) if abs(v[2]) < 0.9 * np.linalg.norm(v) else (0.0, 1.0, 0.0)
+        plotter.view_vector(v, viewup=up)
+        return
     if camera not in _CAMERAS:
         raise ConfigError(f"camera: expected one of {_CAMERAS}, got {camera!r}")
     {"xy": plotter.view_xy, "xz": plotter.view_xz, "yz": plotter.view_yz,
@@ -57,7 +66,7 @@ def _add_machine(plotter, pv, mech, shapes, q, scale, clim, opacity=1.0, ghost=F
         P, d = posed_points(mech, shape, q, scale)
         mesh = _polydata(pv, shape, P)
         if ghost:
-            plotter.add_mesh(mesh, style="wireframe", color="lightgrey", opacity=0.25)
+            plotter.add_mesh(mesh, style="wireframe", color="dimgrey", opacity=0.4, line_width=2)
             continue
         if shape.modes is not None and shape.modes.shape[0]:
             mesh.point_data["elastic displacement, mm"] = 1e3 * d
@@ -69,6 +78,20 @@ def _add_machine(plotter, pv, mech, shapes, q, scale, clim, opacity=1.0, ghost=F
             plotter.add_mesh(mesh, color="silver", opacity=opacity, line_width=5,
                              smooth_shading=False)
     return peak
+
+
+def _label_anchor(mech, shapes, q, scale) -> np.ndarray:
+    """Where to write a configuration's label: at its largest elastic displacement (the
+    flexible links' far end), else at the centre of the machine."""
+    best, anchor = -1.0, None
+    for s in shapes.values():
+        P, d = posed_points(mech, s, q, scale)
+        if s.modes is not None and d.size and d.max() > best:
+            best, anchor = float(d.max()), P[int(np.argmax(d))]
+    if anchor is None:
+        anchor = np.mean([posed_points(mech, s, q, scale)[0].mean(axis=0)
+                          for s in shapes.values()], axis=0)
+    return anchor
 
 
 def _clim(mech, shapes, Q, scale):
@@ -93,30 +116,32 @@ def _bar(plotter, scale, clim):
 def render_machine(path, mech, shapes, q, *, scale: float = 1.0, title: str | None = None,
                    camera: str = "iso", ghost_q=None,
                    window_size: tuple[int, int] = (1200, 900)) -> Path:
-    """PNG of the machine at q (written atomically); optional grey wireframe at ``ghost_q``."""
+    """PNG of the machine at q (written atomically); optional grey wireframe at ``ghost_q``
+    (e.g. the same configuration without elastic deformation)."""
     return render_positions(path, mech, shapes, [q], None, scale=scale, title=title,
-                            camera=camera, ghost_q=ghost_q, window_size=window_size)
+                            camera=camera, ghost_q=None if ghost_q is None else [ghost_q],
+                            window_size=window_size)
 
 
 def render_positions(path, mech, shapes, Q, labels=None, *, scale: float = 1.0,
                      title: str | None = None, camera: str = "iso", ghost_q=None,
                      window_size: tuple[int, int] = (1200, 900)) -> Path:
     """One PNG with the machine at several configurations (e.g. lower/middle/upper),
-    one shared colour range; labels are written next to each configuration."""
+    one shared colour range; labels are written next to each configuration; ``ghost_q``:
+    configurations drawn as grey wireframes (e.g. the undeformed ones)."""
     pv = _pyvista()
     Q = [np.asarray(q, dtype=float) for q in Q]
     clim = _clim(mech, shapes, Q, scale)
     plotter = pv.Plotter(off_screen=True, window_size=window_size)
     try:
         plotter.set_background("white")
-        if ghost_q is not None:
-            _add_machine(plotter, pv, mech, shapes, ghost_q, 0.0, clim, ghost=True)
+        for g in ghost_q or ():
+            _add_machine(plotter, pv, mech, shapes, g, 0.0, clim, ghost=True)
         for k, q in enumerate(Q):
             _add_machine(plotter, pv, mech, shapes, q, scale, clim,
                          opacity=1.0 if len(Q) == 1 else 0.9)
             if labels:
-                anchor = np.mean([posed_points(mech, s, q, scale)[0].mean(axis=0)
-                                  for s in shapes.values()], axis=0)
+                anchor = _label_anchor(mech, shapes, q, scale)
                 plotter.add_point_labels([anchor], [str(labels[k])], font_size=14,
                                          shape_opacity=0.3, always_visible=True)
         _bar(plotter, scale, clim)

@@ -187,6 +187,13 @@ def _auto_scale(m, shapes, Q) -> float:
     return float(10 ** np.floor(np.log10(raw))) if raw > 1 else 1.0
 
 
+def rigid_configuration(mech, q) -> np.ndarray:
+    """q with every modal coordinate zeroed: the undeformed machine for comparison."""
+    q = np.array(q, dtype=float)
+    q[mech.modal_coordinates] = 0.0
+    return q
+
+
 def _render(folder, wf, machines, results, idx, rs_spec) -> str:
     from pipeline.post.scene import render_machine, render_positions
 
@@ -198,7 +205,8 @@ def _render(folder, wf, machines, results, idx, rs_spec) -> str:
         Q = [r.q[-1] for r in rs]
         scale = _scale(rs_spec.scale) or _auto_scale(m, shapes, Q)
         render_positions(path, m.mechanism, shapes, Q, [r.case for r in rs], scale=scale,
-                         camera=rs_spec.camera, title=rs_spec.title)
+                         camera=rs_spec.camera, title=rs_spec.title or f"{wf.name}: {rs[0].name}",
+                         ghost_q=[rigid_configuration(m.mechanism, q) for q in Q])
         return path.name
     r = _pick(rs, rs_spec.case, wf, "outputs", "renders", idx, "case")
     m = machines[r.case]
@@ -210,12 +218,14 @@ def _render(folder, wf, machines, results, idx, rs_spec) -> str:
     Q = [r.q[k] for k in ks]
     scale = _scale(rs_spec.scale) or _auto_scale(m, shapes, Q)
     title = rs_spec.title or f"{wf.name}: {r.label}"
+    ghosts = [rigid_configuration(m.mechanism, q) for q in Q]
     if len(Q) == 1:
+        when = "" if r.type in ("static", "linearised") else f", t = {r.t[ks[0]]:.3g} s"
         render_machine(path, m.mechanism, shapes, Q[0], scale=scale, camera=rs_spec.camera,
-                       title=f"{title}, t = {r.t[ks[0]]:.3g} s")
+                       title=f"{title}{when}", ghost_q=ghosts[0])
     else:
         render_positions(path, m.mechanism, shapes, Q, [f"t = {r.t[k]:.3g} s" for k in ks],
-                         scale=scale, camera=rs_spec.camera, title=title)
+                         scale=scale, camera=rs_spec.camera, title=title, ghost_q=ghosts)
     return path.name
 
 

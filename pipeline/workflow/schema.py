@@ -246,7 +246,8 @@ class RenderSpec(Strict):
     name: Name
     analysis: str
     scale: float | Literal["auto"] = Field("auto", description="elastic magnification")
-    camera: Literal["xy", "xz", "yz", "iso"] = "iso"
+    camera: Literal["xy", "xz", "yz", "iso"] | Vec3 = Field(
+        "iso", description="named view or a view direction [x, y, z] (scene -> camera)")
     at: list[float] | None = Field(None, description="output times (s) to show; default: "
                                                      "the last (timed) or every case (static)")
     case: str | None = Field(None, description="case label (default the first)")
@@ -257,7 +258,7 @@ class AnimationSpec(Strict):
     name: Name
     analysis: str
     scale: float | Literal["auto"] = "auto"
-    camera: Literal["xy", "xz", "yz", "iso"] = "iso"
+    camera: Literal["xy", "xz", "yz", "iso"] | Vec3 = "iso"
     format: Literal["gif", "mp4"] = "gif"
     case: str | None = None
     fps: int = Field(15, ge=1, le=60)
