@@ -280,9 +280,9 @@ def parse_bent_plate(params: Mapping[str, Any], where: str) -> BentPlate:
     check_keys(params, where, required=("points", "width", "thickness"),
                optional=("point_names", "knee_width", "rounded_ends", "bores"))
     pts = validate_array(params["points"], (-1, 2), f"{where}: params.points")
-    if pts.shape[0] < 3:
-        raise ConfigError(f"{where}: params.points: expected at least 3 points "
-                          f"(pivot, knee, tip), got {pts.shape[0]}")
+    if pts.shape[0] < 2:
+        raise ConfigError(f"{where}: params.points: expected at least 2 points "
+                          f"(pivot, [knees,] tip), got {pts.shape[0]}")
     width, t = positive(params, "width", where), positive(params, "thickness", where)
     if np.any(np.linalg.norm(np.diff(pts, axis=0), axis=1) <= width / 2):
         raise ConfigError(f"{where}: params.points: expected members longer than width/2")

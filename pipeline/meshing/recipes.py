@@ -79,7 +79,8 @@ def plate_with_bores(gmsh, params: Mapping[str, Any], path: Path | None, where: 
 
 
 def bent_plate(gmsh, params: Mapping[str, Any], path: Path | None, where: str) -> Groups:
-    """Dog-leg side plate of a loader lift arm, in the plane z = 0.
+    """Dog-leg side plate of a loader lift arm (or, with two points, a straight link plate in
+    any direction), in the plane z = 0.
 
     The outline is the polyline of pivot points (pivot, knee(s), tip) swept
     by a disc: straight strips of ``width`` along each member, joined at every
@@ -87,7 +88,7 @@ def bent_plate(gmsh, params: Mapping[str, Any], path: Path | None, where: str) -
     knee pin), with half-round ends (or square ends if ``rounded_ends`` is
     false). Thickness z in [-thickness/2, thickness/2].
 
-    Parameters (``params``): ``points`` (k >= 3, 2) [[x, y], ...] m;
+    Parameters (``params``): ``points`` (k >= 2, 2) [[x, y], ...] m;
     ``width``, ``thickness`` m; optional ``point_names`` (k names, default
     ``p0``, ``p1``, ...), ``knee_width`` m, ``rounded_ends`` (default true),
     ``bores``: list of ``{name, radius, at: <point name>}`` or

@@ -114,7 +114,7 @@ def _link_spec(wf: Workflow, name: str, entry) -> tuple[LinkSpec, Path]:
         raise config_error(exc, path, data, lines) from None
 
 
-def kept_modes(reduced, modes, plane: str | None, tol: float = 1e-3) -> tuple[int, ...]:
+def kept_modes(reduced, modes, plane: str | None, tol: float = 1e-2) -> tuple[int, ...]:
     """Indices of the kept modes: a count (lowest n) or indices, optionally only those
     whose frames move in ``plane`` (out-of-plane motion below ``tol`` x in-plane)."""
     candidates = list(range(reduced.n_modes))

@@ -79,8 +79,8 @@ def test_bent_plate_params():
     arm = parse_bent_plate(ARM, "link 'arm'")
     assert arm.knee_width == arm.width and arm.rounded_ends
     assert arm.bores[0].center == (0.0, 0.0)
-    with pytest.raises(ConfigError, match=r"params.points: expected at least 3 points"):
-        parse_bent_plate({**ARM, "points": [[0, 0], [1, 0]], "point_names": ["a", "b"]}, "a")
+    with pytest.raises(ConfigError, match=r"params.points: expected at least 2 points"):
+        parse_bent_plate({**ARM, "points": [[0, 0]], "point_names": ["a"], "bores": []}, "a")
     with pytest.raises(ConfigError, match=r"params.bores\[0\].at: unknown point 'elbow'"):
         parse_bent_plate({**ARM, "bores": [{"name": "e", "at": "elbow", "radius": 0.01}]}, "a")
     # a pivot bore at a square end would be cut open
