@@ -21,6 +21,12 @@ def _pyvista():
     except ImportError as exc:  # pragma: no cover - depends on the install
         raise ConfigError("rendering needs pyvista: pip install 'flexmech-pipeline[render]'") \
             from exc
+    try:  # headless machines: VTK warns about the missing X display before going off screen
+        from vtkmodules.vtkCommonCore import vtkLogger
+
+        vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
+    except ImportError:  # pragma: no cover - depends on the VTK build
+        pass
     return pyvista
 
 
