@@ -107,6 +107,10 @@ def _newton(mech, q, part, w, tol, max_iter):
 def _closest(mech, q, part, w, max_nfev):
     """Least-squares minimum of |W r| over the non-prescribed coordinates."""
     cand = np.setdiff1d(np.arange(mech.n), part.prescribed)
+    if not np.all(np.isfinite(q)):
+        raise ClosureError(f"closure: the start has non-finite coordinates "
+                           f"{[mech.coordinates[i] for i in np.flatnonzero(~np.isfinite(q))]}",
+                           "-", "-", np.full(6, np.nan), q.copy())
 
     def full(x):
         qq = q.copy()

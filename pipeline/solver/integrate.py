@@ -21,6 +21,7 @@ from pipeline.core.progress import progress_bar
 from pipeline.dynamics.energy import energies
 from pipeline.dynamics.partition import partition_system, reduced_state, repartition
 from pipeline.kinematics.closure import closure_residual
+from pipeline.kinematics.failures import ClosureError, SingularConfigurationError
 from pipeline.solver.result import ENERGY_KEYS, SimulationResult
 
 logger = logging.getLogger(__name__)
@@ -34,6 +35,7 @@ class _Rhs:
     def __init__(self, system, part, q_guess):
         self.system, self.part, self.guess, self.count = system, part, q_guess, 0
         self.t_last, self.steps, self.reselections = float("nan"), 0, []
+        self.rejected, self.last_error = 0, None
         self.nI = part.independent.size
 
     def state(self, t, y):
@@ -45,7 +47,19 @@ class _Rhs:
     def __call__(self, t, y):
         self.count += 1
         self.t_last = t
-        st = self.state(t, y)
+        if not np.all(np.isfinite(y)):  # a diverging trial stage: reject it (see below)
+            self.rejected += 1
+            return np.full(y.shape, np.nan)
+        try:
+            st = self.state(t, y)
+        except (ClosureError, SingularConfigurationError) as exc:
+            # A trial stage of a too-long step can leave the loops' reach. NaN derivatives
+            # make scipy's error norm NaN, which rejects the step and shrinks it (x0.2 for
+            # the Runge-Kutta methods; a failed Newton for the implicit ones); only if the
+            # step collapses does the run fail, and then with this reason.
+            self.rejected += 1
+            self.last_error = exc
+            return np.full(y.shape, np.nan)
         power = float(st.terms.Q_nonconservative @ st.qd)
         p_drivers = float(st.driver_forces @ st.qd[self.part.driven])
         return np.concatenate([y[self.nI:2 * self.nI], st.qdd_I, [p_drivers, -power]])
@@ -110,7 +124,8 @@ def _march(solver, rhs, te, y0, progress, out, make):
             msg = solver.step()
             rhs.steps += 1
             if solver.status == "failed":
-                return f"integrator failed at t = {solver.t:.6g} s: {msg}", t_out
+                why = f" (last position failure: {rhs.last_error})" if rhs.last_error else ""
+                return f"integrator failed at t = {solver.t:.6g} s: {msg}{why}", t_out
         s0 = time.perf_counter()
         y = y0 if solver.t_old is None else solver.dense_output()(tk)
         _record(rhs, tk, y, out)

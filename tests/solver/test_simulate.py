@@ -104,3 +104,30 @@ def test_result_files_round_trip(tmp_path):
     rows = np.loadtxt(tmp_path / "run.csv", delimiter=",", skiprows=2)
     assert rows.shape == (5, 1 + 3 * s.mechanism.n + 7 + 1)
     assert np.allclose(rows[:, 1:1 + s.mechanism.n], r.q, rtol=0, atol=0)
+
+
+@pytest.mark.parametrize("method", ["DOP853", "Radau"])
+def test_position_failure_in_a_trial_stage_rejects_the_step(monkeypatch, method):
+    """A trial state the loops cannot reach (here: injected once, at the first evaluation past
+    t = 0.1 s) makes the integrator retry a shorter step instead of ending the run."""
+    import pipeline.solver.integrate as integ
+    from pipeline.kinematics.failures import ClosureError
+
+    s = flexible_double_pendulum(n_modes=1).system
+    q0 = np.zeros(s.mechanism.n)
+    te = np.linspace(0, 0.3, 7)
+    ref = simulate(s, q0, q0, (0, 0.3), te, method=method, rtol=1e-9, atol=1e-9,
+                   progress=False)
+    real, fired = integ.reduced_state, []
+
+    def flaky(system, part, qI, qdI, t, guess):
+        if t > 0.1 and not fired:
+            fired.append(t)
+            raise ClosureError("injected", "L1", "J", np.zeros(6), guess)
+        return real(system, part, qI, qdI, t, guess)
+
+    monkeypatch.setattr(integ, "reduced_state", flaky)
+    r = simulate(s, q0, q0, (0, 0.3), te, method=method, rtol=1e-9, atol=1e-9,
+                 progress=False)
+    assert fired and r.success, r.message
+    assert np.abs(r.q - ref.q).max() < 1e-6
