@@ -218,14 +218,17 @@ def _render(folder, wf, machines, results, idx, rs_spec) -> str:
     Q = [r.q[k] for k in ks]
     scale = _scale(rs_spec.scale) or _auto_scale(m, shapes, Q)
     title = rs_spec.title or f"{wf.name}: {r.label}"
-    ghosts = [rigid_configuration(m.mechanism, q) for q in Q]
+    # the undeformed machine as a wireframe where deformation is the point (static results)
+    ghosts = ([rigid_configuration(m.mechanism, q) for q in Q]
+              if r.type in ("static", "linearised") else [None] * len(Q))
     if len(Q) == 1:
         when = "" if r.type in ("static", "linearised") else f", t = {r.t[ks[0]]:.3g} s"
         render_machine(path, m.mechanism, shapes, Q[0], scale=scale, camera=rs_spec.camera,
                        title=f"{title}{when}", ghost_q=ghosts[0])
     else:
         render_positions(path, m.mechanism, shapes, Q, [f"t = {r.t[k]:.3g} s" for k in ks],
-                         scale=scale, camera=rs_spec.camera, title=title, ghost_q=ghosts)
+                         scale=scale, camera=rs_spec.camera, title=title,
+                         ghost_q=None if ghosts[0] is None else ghosts)
     return path.name
 
 
