@@ -61,6 +61,13 @@ def plot_panels(path: str | Path, panels, *, suptitle: str | None = None,
         ax.set_visible(False)
     if suptitle:
         fig.suptitle(suptitle, fontsize=11)
+    return save_figure(fig, path)
+
+
+def save_figure(fig, path: str | Path) -> Path:
+    """Lay out, write as PNG atomically and close a matplotlib figure; returns the path."""
+    import matplotlib.pyplot as plt
+
     fig.tight_layout()
     path = Path(path)
     with atomic_path(path) as tmp:

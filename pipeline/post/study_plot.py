@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.core.atomic import atomic_path
+from pipeline.post.plots import save_figure
 
 
 def plot_convergence(path: str | Path, labels, relative: dict, *, reference: str,
@@ -37,9 +37,4 @@ def plot_convergence(path: str | Path, labels, relative: dict, *, reference: str
     ax.set_title(title or f"Convergence towards '{reference}'")
     ax.grid(True, axis="y", which="both", alpha=0.3)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png")
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
