@@ -7,6 +7,9 @@
 * ``"Radau"``: implicit, L-stable 5th order, for stiff runs with
   high-frequency modes (step size not limited by the highest mode).
 * ``"BDF"``, ``"RK45"``, ``"LSODA"``: also available.
+* ``"generalized_alpha"``: fixed-step, second-order, implicit with numerical damping of
+  the highest modes (``rho_inf``); for closed loops whose stiff closed-loop modes cap an
+  explicit step (:mod:`pipeline.solver.generalized_alpha`). Needs ``step``.
 """
 
 from __future__ import annotations
@@ -15,17 +18,20 @@ import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK45, Radau
 
 from pipeline.core.errors import ConfigError
+from pipeline.solver.generalized_alpha import GeneralizedAlpha, coefficients
 from pipeline.solver.integrate import run
 from pipeline.solver.result import ENERGY_KEYS, SimulationResult
 
 __all__ = ["ENERGY_KEYS", "INTEGRATORS", "SimulationResult", "simulate"]
 
-INTEGRATORS = {"DOP853": DOP853, "Radau": Radau, "BDF": BDF, "RK45": RK45, "LSODA": LSODA}
+INTEGRATORS = {"DOP853": DOP853, "Radau": Radau, "BDF": BDF, "RK45": RK45, "LSODA": LSODA,
+               "generalized_alpha": GeneralizedAlpha}
 
 
 def simulate(system, q0, qd0, t_span, t_eval=None, method: str = "DOP853", rtol: float = 1e-8,
              atol: float = 1e-10, progress: bool = True,
-             max_step: float = np.inf) -> SimulationResult:
+             max_step: float = np.inf, step: float | None = None,
+             rho_inf: float = 0.8) -> SimulationResult:
     """Transient dynamics of ``system`` from (q0, qd0) over ``t_span``.
 
     Parameters
@@ -39,7 +45,9 @@ def simulate(system, q0, qd0, t_span, t_eval=None, method: str = "DOP853", rtol:
     method : key of ``INTEGRATORS`` or an ``OdeSolver`` subclass.
     rtol, atol : integrator tolerances.
     progress : show a progress bar on an interactive terminal.
-    max_step : largest step, s.
+    max_step : largest step, s (adaptive methods).
+    step : fixed step, s (``generalized_alpha``; required there).
+    rho_inf : spectral radius at infinite frequency, [0, 1] (``generalized_alpha``).
 
     Returns
     -------
@@ -66,4 +74,12 @@ def simulate(system, q0, qd0, t_span, t_eval=None, method: str = "DOP853", rtol:
         cls, name = INTEGRATORS[method], method
     else:
         cls, name = method, getattr(method, "__name__", str(method))
-    return run(system, q0, qd0, t_span, t_eval, cls, name, rtol, atol, progress, max_step)
+    options = None
+    if getattr(cls, "SECOND_ORDER", False):
+        if step is None or not np.isfinite(step) or step <= 0:
+            raise ConfigError(f"simulate: step: method {name!r} needs a fixed step > 0 s, "
+                              f"got {step!r}")
+        options = {"step": float(step), "rho_inf": float(rho_inf)}
+        coefficients(rho_inf)  # validates rho_inf before any work
+    return run(system, q0, qd0, t_span, t_eval, cls, name, rtol, atol, progress, max_step,
+               options)

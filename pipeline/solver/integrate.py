@@ -134,7 +134,7 @@ def _march(solver, rhs, te, y0, progress, out, make):
 
 
 def run(system, q0, qd0, t_span, t_eval, solver_cls, name, rtol, atol, progress,
-        max_step) -> SimulationResult:
+        max_step, options=None) -> SimulationResult:
     """Integrate (see :func:`pipeline.solver.simulate` for the parameters)."""
     q0, qd0, t0, t1, te = _check(system, q0, qd0, t_span, t_eval, rtol, atol)
     tic = time.perf_counter()
@@ -145,7 +145,10 @@ def run(system, q0, qd0, t_span, t_eval, solver_cls, name, rtol, atol, progress,
     out, msg, t_out = [], None, 0.0
     try:
         def make(t, y):
-            return solver_cls(rhs, t, y, t1, rtol=rtol, atol=atol, max_step=max_step)
+            extra = {}
+            if getattr(solver_cls, "SECOND_ORDER", False):  # y = [q_I, v_I, work, dissipated]
+                extra = {"n_second": rhs.nI, **(options or {})}
+            return solver_cls(rhs, t, y, t1, rtol=rtol, atol=atol, max_step=max_step, **extra)
 
         msg, t_out = _march(make(t0, y0), rhs, te, y0, progress, out, make)
     except (PipelineError, np.linalg.LinAlgError, FloatingPointError) as exc:
