@@ -102,4 +102,6 @@ def test_static_cases_and_transient(run):
     assert r.extra["closure_residual"].max() < 1e-10
     e = series(r, run.machines[r.case].mechanism, "energy:total").values
     scale = np.abs(series(r, run.machines[r.case].mechanism, "energy:gravity").values).max()
-    assert np.abs(e - e[0]).max() < 1e-6 * scale
+    # generalised-alpha: second order, trapezoidal energy integrals, numerical damping of
+    # the stiff closed-loop modes (rho_inf 0.8): the balance closes to O(h^2), not to 1e-12
+    assert np.abs(e - e[0]).max() < 1e-4 * scale
