@@ -16,15 +16,21 @@ from pipeline.post.render import _pyvista, save_png
 _CAMERAS = ("xy", "xz", "yz", "iso")
 
 
-def posed_points(mech, shape, q, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+def link_poses(mech, q) -> np.ndarray:
+    """(n_links, 4, 4) body-to-ground transforms at q (compute once per configuration)."""
+    return evaluate_tree(mech, np.asarray(q, dtype=float), derivatives=False).A
+
+
+def posed_points(mech, shape, q, scale: float = 1.0, poses=None) -> tuple[np.ndarray, np.ndarray]:
     """((N, 3) ground points, (N,) elastic displacement magnitude, m) of a link at q.
 
     The rigid motion is exact; only the elastic part sum_a u_a eta_a is multiplied by
-    ``scale``. The magnitude is the true (unscaled) elastic displacement.
+    ``scale``. The magnitude is the true (unscaled) elastic displacement. ``poses``:
+    :func:`link_poses` at q, when several links are drawn at the same q.
     """
     q = np.asarray(q, dtype=float)
     li = mech.link_index(shape.link)
-    A = evaluate_tree(mech, q, derivatives=False).A[li]
+    A = (link_poses(mech, q) if poses is None else poses)[li]
     X = shape.points
     if shape.modes is not None and shape.modes.shape[0]:
         eta = q[mech.modal_index[li]]
@@ -62,8 +68,9 @@ def _camera(plotter, camera):
 def _add_machine(plotter, pv, mech, shapes, q, scale, clim, opacity=1.0, ghost=False):
     """Add every link at q; returns the largest elastic displacement drawn (m)."""
     peak = 0.0
+    poses = link_poses(mech, q)
     for shape in shapes.values():
-        P, d = posed_points(mech, shape, q, scale)
+        P, d = posed_points(mech, shape, q, scale, poses)
         mesh = _polydata(pv, shape, P)
         if ghost:
             plotter.add_mesh(mesh, style="wireframe", color="dimgrey", opacity=0.4, line_width=2)
@@ -97,8 +104,9 @@ def _label_anchor(mech, shapes, q, scale) -> np.ndarray:
 def _clim(mech, shapes, Q, scale):
     top = 0.0
     for q in Q:
+        poses = link_poses(mech, q)
         for s in shapes.values():
-            top = max(top, float(posed_points(mech, s, q, 1.0)[1].max(initial=0.0)))
+            top = max(top, float(posed_points(mech, s, q, 1.0, poses)[1].max(initial=0.0)))
     return [0.0, max(1e3 * top, 1e-9)]
 
 

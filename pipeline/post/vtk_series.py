@@ -8,15 +8,16 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from pipeline.core.atomic import atomic_open
-from pipeline.post.scene import posed_points
+from pipeline.post.scene import link_poses, posed_points
 
 
 def machine_grid(mech, shapes, q, scale: float = 1.0):
     """(points (N, 3), cells [(type, array)], point data, cell data) of all links at q."""
     pts, tri, lines, disp, tri_id, line_id, n0 = [], [], [], [], [], [], 0
+    poses = link_poses(mech, q)
     for i, (name, s) in enumerate(shapes.items()):
-        P, _ = posed_points(mech, s, q, scale)
-        P0, _ = posed_points(mech, s, q, 0.0)
+        P, _ = posed_points(mech, s, q, scale, poses)
+        P0, _ = posed_points(mech, s, q, 0.0, poses)
         pts.append(P)
         disp.append((P - P0) / scale if scale else np.zeros_like(P))
         if s.triangles is not None:
