@@ -56,6 +56,9 @@ class GeneralizedAlpha(OdeSolver):
     """
 
     MAX_NEWTON = 8
+    #: Newton iterations after which a step refreshes df/dq, df/dv (loader, 100 steps of 5 ms:
+    #: 2 -> 1360 evaluations, 3 -> 744, 4 -> 562, only on failure (8) -> 615)
+    REFRESH_AFTER = 4
     #: the driver passes n_second (the reduced coordinates' count) and the fixed-step options
     SECOND_ORDER = True
 
@@ -124,7 +127,8 @@ class GeneralizedAlpha(OdeSolver):
                 extras = extras_old + 0.5 * h * (self.f[2 * k:] + f[2 * k:])
                 f[:k] = v
                 return True, np.concatenate([q, v, extras]), f, abar_new
-            if self.J is None or (it == self.MAX_NEWTON and not refreshed):
+            # slow convergence means the iteration matrix is stale: refresh it once
+            if self.J is None or (it == self.REFRESH_AFTER and not refreshed):
                 self.J = self._jacobian(t1, q, v, extras, f)
                 refreshed = True
             elif it >= 2 * self.MAX_NEWTON:
