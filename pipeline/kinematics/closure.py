@@ -47,13 +47,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.kinematics.mechanism import Mechanism
-from pipeline.kinematics.poses import TreeState, evaluate_tree, local_matrices, place_d, place_rates
+from pipeline.kinematics.poses import (Locals, TreeState, evaluate_tree, local_matrices,
+                                       local_rates, place_d, place_rates, tree_with_rates)
 
 _I = ([2, 0, 1], [1, 2, 0])  # vee(E) = (E[I] - E[I^T]) / 2
 _IT = ([1, 2, 0], [2, 0, 1])
 
 __all__ = ["ClosureValue", "closure", "closure_gamma", "closure_jacobian",
-           "closure_residual", "row_weights"]
+           "closure_rates", "closure_residual", "row_weights"]
 
 
 @dataclass(frozen=True)
@@ -66,12 +67,14 @@ class ClosureValue:
     J : (6 k, n) dr/dq, or None.
     gamma : (6 k,) right-hand side of J q'' = gamma, or None.
     tree : the link poses (and derivatives) used.
+    local : the steps' local matrices at q (and q' when gamma is set).
     """
 
     r: np.ndarray
     J: np.ndarray | None
     gamma: np.ndarray | None
     tree: TreeState
+    local: Locals | None = None
 
 
 def row_weights(mech: Mechanism) -> np.ndarray:
@@ -90,16 +93,13 @@ def closure(mech: Mechanism, q: np.ndarray, qd: np.ndarray | None = None,
     K, n = len(mech.loop_steps), mech.n
     if K == 0:
         return ClosureValue(np.zeros(0), np.zeros((0, n)) if jacobian else None,
-                            None if qd is None else np.zeros(0), tree)
+                            None if qd is None else np.zeros(0), tree, loc)
     slots = [k for pair in mech.table.loop_slot for k in pair]
     J = g = None
     if jacobian:
         Zs = np.array([place_d(k, loc, mech, tree.Z) for k in slots]).reshape(K, 2, 1 + n, 4, 4)
         P, dP = Zs[:, :, 0], Zs[:, :, 1:]
-    if qd is not None:
-        Ys = np.array([place_rates(k, loc, mech, tree.Y) for k in slots]).reshape(K, 2, 4, 12)
-        P, Pd, Pdd = Ys[..., :4], Ys[..., 4:8], Ys[..., 8:]
-    if not jacobian and qd is None:
+    else:
         P = np.array([tree.A[mech.table.steps[k].frm] @ loc.M[k] for k in slots]).reshape(
             K, 2, 4, 4)
     RL, RR = P[:, 0, :3, :3], P[:, 1, :3, :3]
@@ -115,13 +115,33 @@ def closure(mech: Mechanism, q: np.ndarray, qd: np.ndarray | None = None,
         J[:, 3:] = _vee(dE).transpose(0, 2, 1)
         J = J.reshape(6 * K, n)
     if qd is not None:
-        g = np.empty((K, 6))
-        g[:, :3] = Pdd[:, 1, :3, 3] - Pdd[:, 0, :3, 3]
-        E2 = Pdd[:, 1, :3, :3] @ RLt + 2.0 * Pd[:, 1, :3, :3] @ Pd[:, 0, :3, :3].transpose(
-            0, 2, 1) + RR @ Pdd[:, 0, :3, :3].transpose(0, 2, 1)
-        g[:, 3:] = -_vee(E2)
-        g = g.reshape(-1)
-    return ClosureValue(r.reshape(-1), J, g, tree)
+        g = _gamma(mech, loc, tree)
+    return ClosureValue(r.reshape(-1), J, g, tree, loc)
+
+
+def _gamma(mech: Mechanism, loc: Locals, tree: TreeState) -> np.ndarray:
+    """(6 k,) gamma from local matrices and a tree with rates."""
+    K = len(mech.loop_steps)
+    slots = [k for pair in mech.table.loop_slot for k in pair]
+    Ys = np.array([place_rates(k, loc, mech, tree.Y) for k in slots]).reshape(K, 2, 4, 12)
+    P, Pd, Pdd = Ys[..., :4], Ys[..., 4:8], Ys[..., 8:]
+    RLt = P[:, 0, :3, :3].transpose(0, 2, 1)
+    g = np.empty((K, 6))
+    g[:, :3] = Pdd[:, 1, :3, 3] - Pdd[:, 0, :3, 3]
+    E2 = Pdd[:, 1, :3, :3] @ RLt + 2.0 * Pd[:, 1, :3, :3] @ Pd[:, 0, :3, :3].transpose(
+        0, 2, 1) + P[:, 1, :3, :3] @ Pdd[:, 0, :3, :3].transpose(0, 2, 1)
+    g[:, 3:] = -_vee(E2)
+    return g.reshape(-1)
+
+
+def closure_rates(mech: Mechanism, c: ClosureValue, q: np.ndarray,
+                  qd: np.ndarray) -> ClosureValue:
+    """``c`` (evaluated at q with the Jacobian, no rates) completed with gamma and the tree's
+    A', A'' at the rates qd (n,): the positions are not evaluated again."""
+    loc = local_rates(mech, q, np.asarray(qd, dtype=float), c.local)
+    tree = tree_with_rates(mech, c.tree, loc)
+    g = _gamma(mech, loc, tree) if mech.loop_steps else np.zeros(0)
+    return ClosureValue(c.r, c.J, g, tree, loc)
 
 
 def _vee(E: np.ndarray) -> np.ndarray:

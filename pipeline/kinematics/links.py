@@ -84,7 +84,8 @@ class Frame:
         """(4, 4) shape matrix S(eta); eta (m,) modal coordinates."""
         if self.n_modes == 0:
             return self.pose
-        return self.pose + np.tensordot(np.asarray(eta, dtype=float), self.dshape, axes=1)
+        m = self.n_modes  # a (m,) @ (m, 16) product: tensordot's overhead dominates at 4x4
+        return self.pose + (np.asarray(eta, dtype=float) @ self.dshape.reshape(m, 16)).reshape(4, 4)
 
     def shape_derivatives(self) -> np.ndarray:
         """(m, 4, 4) constant dS/deta_a."""

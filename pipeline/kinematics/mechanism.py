@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -182,14 +183,16 @@ class Mechanism:
         """Number of coordinates."""
         return len(self.coordinates)
 
-    @property
+    @cached_property  # looked up at every evaluation of the equations of motion
     def link_names(self) -> tuple[str, ...]:
         return tuple(l.name for l in self.links)
 
-    @property
+    @cached_property
     def modal_coordinates(self) -> np.ndarray:
-        """(n_eta,) indices of all modal coordinates."""
-        return np.concatenate([_NO_INDEX, *self.modal_index]).astype(int)
+        """(n_eta,) indices of all modal coordinates (read-only)."""
+        idx = np.concatenate([_NO_INDEX, *self.modal_index]).astype(int)
+        idx.setflags(write=False)
+        return idx
 
     def index(self, name: str) -> int:
         """Index of coordinate ``name`` in q."""

@@ -36,8 +36,8 @@ import numpy as np
 
 from pipeline.kinematics.mechanism import Mechanism, Step
 
-__all__ = ["Locals", "StepValue", "TreeState", "evaluate_tree", "local_matrices", "place_d",
-           "place_rates", "step_local", "step_pose", "step_value"]
+__all__ = ["Locals", "StepValue", "TreeState", "evaluate_tree", "local_matrices", "local_rates",
+           "place_d", "place_rates", "step_local", "step_pose", "step_value", "tree_with_rates"]
 
 _I4 = np.eye(4)
 _Z4 = np.zeros((4, 4))
@@ -120,7 +120,7 @@ def step_local(step: Step, q: np.ndarray, qd: np.ndarray | None = None, need_d: 
             dM = dM @ tail
     if qd is not None:
         if fr.n_modes:
-            Sd = np.tensordot(qd[step.eta_idx], fr.dshape, axes=1)
+            Sd = (qd[step.eta_idx] @ fr.dshape.reshape(fr.n_modes, 16)).reshape(4, 4)
             Md = Sd @ G + S @ Gd
             Mdd = 2.0 * Sd @ Gd + S @ Gdd
         else:
@@ -174,44 +174,54 @@ class Locals:
 
 def local_matrices(mech: Mechanism, q: np.ndarray, qd: np.ndarray | None = None,
                    need_d: bool = True) -> Locals:
-    """Evaluate every step's local matrix at once (rigid one-motion steps vectorised)."""
+    """Evaluate every step's local matrix at once (rigid one-motion steps vectorised);
+    with rates qd (n,) also M', M'' (see :func:`local_rates`)."""
     tab = mech.table
     S = len(tab.steps)
     M, D1 = np.empty((S, 4, 4)), np.zeros((S, 4, 4))
-    rates = qd is not None
-    Md = np.zeros((S, 4, 4)) if rates else None
-    Mdd = np.zeros((S, 4, 4)) if rates else None
     if tab.iR.size:
         x = q[tab.qR][:, None, None]
         c, s = np.cos(x), np.sin(x)
         M[tab.iR] = tab.R0 + s * tab.R1 + (1.0 - c) * tab.R2
-        D1[tab.iR] = dR = c * tab.R1 + s * tab.R2
-        if rates:
-            w = qd[tab.qR][:, None, None]
-            Md[tab.iR] = w * dR
-            Mdd[tab.iR] = (w * w) * (c * tab.R2 - s * tab.R1)
+        D1[tab.iR] = c * tab.R1 + s * tab.R2
     if tab.iT.size:
-        x = q[tab.qT][:, None, None]
-        M[tab.iT] = tab.T0 + x * tab.T1
+        M[tab.iT] = tab.T0 + q[tab.qT][:, None, None] * tab.T1
         D1[tab.iT] = tab.T1
-        if rates:
-            Md[tab.iT] = qd[tab.qT][:, None, None] * tab.T1
     if tab.iF.size:
         M[tab.iF] = tab.F0
     general = {}
     for k in tab.iG:
-        M[k], general[k], md, mdd = step_local(tab.steps[k], q, qd, need_d)
-        if rates:
-            Md[k], Mdd[k] = md, mdd
-    MB = None
-    if rates:
-        MB = np.zeros((S, 12, 12))
-        for b in range(3):
-            MB[:, 4 * b:4 * b + 4, 4 * b:4 * b + 4] = M
-        MB[:, 0:4, 4:8] = Md
-        MB[:, 4:8, 8:12] = 2.0 * Md
-        MB[:, 0:4, 8:12] = Mdd
-    return Locals(M, D1, general, MB)
+        M[k], general[k], _, _ = step_local(tab.steps[k], q, None, need_d)
+    loc = Locals(M, D1, general, None)
+    return loc if qd is None else local_rates(mech, q, qd, loc)
+
+
+def local_rates(mech: Mechanism, q: np.ndarray, qd: np.ndarray, loc: Locals) -> Locals:
+    """``loc`` (evaluated at q without rates) completed with the rate block MB at qd (n,).
+
+    Lets a caller close the loops first and add the rates once q' is known,
+    without evaluating the positions twice.
+    """
+    tab = mech.table
+    M = loc.M
+    Md, Mdd = np.zeros_like(M), np.zeros_like(M)
+    if tab.iR.size:
+        x = q[tab.qR][:, None, None]
+        c, s = np.cos(x), np.sin(x)
+        w = qd[tab.qR][:, None, None]
+        Md[tab.iR] = w * loc.D1[tab.iR]
+        Mdd[tab.iR] = (w * w) * (c * tab.R2 - s * tab.R1)
+    if tab.iT.size:
+        Md[tab.iT] = qd[tab.qT][:, None, None] * tab.T1
+    for k in tab.iG:
+        _, _, Md[k], Mdd[k] = step_local(tab.steps[k], q, qd, need_d=False)
+    MB = np.zeros((M.shape[0], 12, 12))
+    for b in range(3):
+        MB[:, 4 * b:4 * b + 4, 4 * b:4 * b + 4] = M
+    MB[:, 0:4, 4:8] = Md
+    MB[:, 4:8, 8:12] = 2.0 * Md
+    MB[:, 0:4, 8:12] = Mdd
+    return Locals(M, loc.D1, loc.general, MB)
 
 
 def place_d(k: int, loc: Locals, mech: Mechanism, Z: np.ndarray) -> np.ndarray:
@@ -255,10 +265,7 @@ def evaluate_tree(mech: Mechanism, q: np.ndarray, qd: np.ndarray | None = None,
             Z[li] = place_d(slots[li], loc, mech, Z)
         A, dA = Z[:, 0], Z[:, 1:]
     if qd is not None:
-        Y = np.zeros((L, 4, 12))
-        Y[order[0], :, :4] = _I4
-        for li in order[1:]:
-            Y[li] = place_rates(slots[li], loc, mech, Y)
+        Y = _tree_rates(mech, loc)
         A, Ad, Add = Y[:, :, :4], Y[:, :, 4:8], Y[:, :, 8:]
     if A is None:
         A = np.empty((L, 4, 4))
@@ -267,3 +274,19 @@ def evaluate_tree(mech: Mechanism, q: np.ndarray, qd: np.ndarray | None = None,
             k = slots[li]
             A[li] = A[mech.table.steps[k].frm] @ loc.M[k]
     return TreeState(A, dA, Ad, Add, Z, Y)
+
+
+def _tree_rates(mech: Mechanism, loc: Locals) -> np.ndarray:
+    """(L, 4, 12) [A | A' | A''(q''=0)] of every link from local matrices with rates."""
+    order, slots = mech.placement, mech.table.tree_slot
+    Y = np.zeros((len(mech.links), 4, 12))
+    Y[order[0], :, :4] = _I4
+    for li in order[1:]:
+        Y[li] = place_rates(slots[li], loc, mech, Y)
+    return Y
+
+
+def tree_with_rates(mech: Mechanism, tree: TreeState, loc: Locals) -> TreeState:
+    """``tree`` (with dA, no rates) completed with A', A'' from ``loc`` (:func:`local_rates`)."""
+    Y = _tree_rates(mech, loc)
+    return TreeState(tree.A, tree.dA, Y[:, :, 4:8], Y[:, :, 8:], tree.Z, Y)
