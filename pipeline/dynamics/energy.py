@@ -36,7 +36,7 @@ def kinetic_energy(system, tree, q: np.ndarray, qd: np.ndarray) -> float:
         T += 0.5 * float(np.sum((Ad @ J) * Ad))
         if idx.size:
             etad = qd[idx]
-            Ne = np.tensordot(etad, N, axes=1)
+            Ne = (etad @ N.reshape(idx.size, 16)).reshape(4, 4)
             T += float(np.sum((Ad @ Ne) * A))
             Mee = modal_block(A, body.Cpp)
             T += 0.5 * float(etad @ Mee @ etad)
@@ -52,13 +52,17 @@ def elastic_energy(system, q: np.ndarray) -> float:
     return V
 
 
-def energies(system, tree, q: np.ndarray, qd: np.ndarray) -> dict[str, float]:
+def energies(system, tree, q: np.ndarray, qd: np.ndarray,
+             M: np.ndarray | None = None) -> dict[str, float]:
     """{'kinetic', 'gravity', 'elastic', 'forces'} energies (J) at (q, qd).
 
-    ``forces`` sums the potential energy of the force elements (springs).
+    ``forces`` sums the potential energy of the force elements (springs). ``M``: the
+    mass matrix at q (n, n) if the caller has it; T = 1/2 q'^T M q' then (T is
+    quadratic in q'), otherwise T comes from the link poses (:func:`kinetic_energy`).
     """
     Vf = sum(float(f.potential_energy(system, tree, q)) for f in system.forces)
-    return {"kinetic": kinetic_energy(system, tree, q, qd),
+    T = kinetic_energy(system, tree, q, qd) if M is None else 0.5 * float(qd @ M @ qd)
+    return {"kinetic": T,
             "gravity": gravity_potential(system, tree, q),
             "elastic": elastic_energy(system, q),
             "forces": Vf}

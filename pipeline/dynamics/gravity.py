@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.dynamics.mass_matrix import all_link_terms
+from pipeline.dynamics.mass_matrix import all_link_terms, stacked
 
 __all__ = ["gravity_force", "gravity_potential"]
 
@@ -32,9 +32,14 @@ def gravity_force(system, tree, q: np.ndarray, links=None) -> np.ndarray:
     ``links``: ``all_link_terms(system, q)`` (computed if None).
     """
     g = np.append(system.gravity, 0.0)
-    Q = np.zeros(system.mechanism.n)
-    for li, body, idx, J, _ in links if links is not None else all_link_terms(system, q):
-        Q += (tree.dA[li] @ J[:, 3]) @ g
+    n = system.mechanism.n
+    links = all_link_terms(system, q) if links is None else links
+    if not links:
+        return np.zeros(n)
+    D, J = stacked(tree, links, n)
+    # (dA J[:, 3]) . g = tr(dA W^T) with W = g J[:, 3]^T
+    Q = D @ (g[None, :, None] * J[:, None, :, 3]).reshape(-1)
+    for li, body, idx, _, _ in links:
         if idx.size:
             Q[idx] += (body.Cp[:, 3, :] @ tree.A[li].T) @ g
     return Q

@@ -30,17 +30,12 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["all_link_terms", "link_terms", "mass_links", "mass_matrix", "modal_block"]
+__all__ = ["all_link_terms", "link_terms", "mass_links", "mass_matrix", "modal_block", "stacked"]
 
 
-def mass_links(system) -> list[tuple[int, object, np.ndarray]]:
+def mass_links(system) -> tuple[tuple[int, object, np.ndarray], ...]:
     """(link index, BodyMass, modal indices in q) of every link that has mass."""
-    mech = system.mechanism
-    out = []
-    for name, body in system.bodies.items():
-        li = mech.link_index(name)
-        out.append((li, body, mech.modal_index[li]))
-    return out
+    return system.mass_links
 
 
 def link_terms(body, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -73,6 +68,17 @@ def modal_block(A: np.ndarray, Cpp: np.ndarray) -> np.ndarray:
     return np.sum((A @ Cpp.reshape(m * m, 4, 4)) * A, axis=(1, 2)).reshape(m, m)
 
 
+def stacked(tree, links, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """D (n, L*16): dA/dq of the L massive links side by side, and their J (L, 4, 4).
+
+    Contractions over every massive link, sum_l tr(dA_l,i X_l^T), then become one
+    product D @ X.reshape(L*16): the link loop runs inside numpy.
+    """
+    lis = [item[0] for item in links]
+    D = tree.dA[lis].transpose(1, 0, 2, 3).reshape(n, 16 * len(lis))
+    return D, np.array([item[3] for item in links]).reshape(-1, 4, 4)
+
+
 def mass_matrix(system, tree, q: np.ndarray, links=None) -> np.ndarray:
     """(n, n) generalised mass matrix at q.
 
@@ -88,14 +94,18 @@ def mass_matrix(system, tree, q: np.ndarray, links=None) -> np.ndarray:
     M : (n, n) symmetric, kg / kg m / kg m^2 per coordinate units.
     """
     n = system.mechanism.n
-    M = np.zeros((n, n))
-    for li, body, idx, J, N in links if links is not None else all_link_terms(system, q):
-        A, dA = tree.A[li], tree.dA[li]
-        D = dA.reshape(n, 16)
-        M += (dA @ J).reshape(n, 16) @ D.T
+    links = all_link_terms(system, q) if links is None else links
+    if not links:
+        return np.zeros((n, n))
+    D, J = stacked(tree, links, n)
+    lis = [item[0] for item in links]
+    X = (tree.dA[lis] @ J[:, None]).transpose(1, 0, 2, 3).reshape(n, -1)
+    M = X @ D.T  # sum_l tr(dA_i J dA_j^T)
+    for li, body, idx, _, N in links:
         if idx.size:
+            A = tree.A[li]
             # tr(dA_i N_a A^T) = sum_kl dA_i[k, l] (A N_a^T)[k, l]
-            cross = D @ (A @ N.transpose(0, 2, 1)).reshape(-1, 16).T
+            cross = tree.dA[li].reshape(n, 16) @ (A @ N.transpose(0, 2, 1)).reshape(-1, 16).T
             M[:, idx] += cross
             M[idx, :] += cross.T
             M[np.ix_(idx, idx)] += modal_block(A, body.Cpp)

@@ -25,13 +25,13 @@ Examples
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from pipeline.dynamics.equations import EquationTerms, equation_terms
 from pipeline.kinematics.analysis import solve_position, velocity_map
-from pipeline.kinematics.closure import closure
+from pipeline.kinematics.closure import closure, closure_rates
 from pipeline.kinematics.partition import Partition, normalised_jacobian, select_partition
 
 __all__ = ["DynamicPartition", "ReducedState", "complete_position", "partition_system",
@@ -64,6 +64,9 @@ class ReducedState:
     q, qd, qdd : (n,); qdd_I : (nI,); B : (n, nI); terms : EquationTerms at (q, qd).
     driver_forces : (p,) force (N) or torque (N m) each driver applies along its
         coordinate to impose the prescribed motion.
+    residual : (6 k,) closure residual at q (m, rad).
+    Bp : (n, p) dq/dq_p through the loops (see :func:`velocity_transform`).
+    J : (6 k, n) closure Jacobian at q, or None for a tree.
     """
 
     q: np.ndarray
@@ -73,6 +76,9 @@ class ReducedState:
     B: np.ndarray
     terms: EquationTerms
     driver_forces: np.ndarray
+    residual: np.ndarray
+    Bp: np.ndarray
+    J: np.ndarray | None
 
 
 def partition_system(system, q: np.ndarray) -> DynamicPartition:
@@ -97,27 +103,46 @@ def _rcond(mech, J: np.ndarray, kin: Partition) -> float:
     return float(s[-1] / s[0]) if s[0] > 0 else 0.0
 
 
-def repartition(system, part: DynamicPartition, q: np.ndarray,
-                factor: float = 10.0) -> DynamicPartition | None:
+def repartition(system, part: DynamicPartition, q: np.ndarray, factor: float = 10.0,
+                J: np.ndarray | None = None) -> DynamicPartition | None:
     """A better-conditioned split at q (n,), or None to keep ``part``.
 
-    Re-selects (DESIGN §3) when the best dependent block available is
-    ``factor`` times better conditioned than the current one, e.g. when the
-    current one approaches a toggle. Raises SingularConfigurationError if no
-    choice is regular (the loops themselves are singular at q).
+    Looks for one only when the current dependent block is poorly conditioned (rcond
+    <= 0.1) and has lost half its conditioning since it was chosen (or last examined),
+    e.g. when it approaches a toggle; re-selects (DESIGN §3) when the best block
+    available is ``factor`` times better conditioned. When it looked and kept the
+    coordinates it returns ``part`` with the present conditioning as the new
+    reference (same ``independent``), so a steady, moderately conditioned
+    mechanism is not re-examined at every step. ``J``: the closure Jacobian at q
+    if the caller has it. Raises SingularConfigurationError if no choice is regular
+    (the loops themselves are singular at q).
     """
     if not part.has_loops or not part.kin.dependent.size:
         return None
     mech = system.mechanism
-    J = closure(mech, q).J
+    if J is None:
+        J = closure(mech, q).J
     now = _rcond(mech, J, part.kin)
-    if now > 0.1:  # well conditioned: no need to look
+    if now > 0.1 or now >= 0.5 * part.kin.rcond:  # well or still as conditioned as chosen
         return None
     kin = select_partition(mech, J, part.kin.prescribed, q=q)
     if kin.rcond < factor * now or np.array_equal(kin.dependent, part.kin.dependent):
-        return None
+        return replace(part, kin=replace(part.kin, rcond=now))
     ind = np.sort(np.concatenate([mech.modal_coordinates, kin.free]).astype(int))
     return DynamicPartition(kin, ind, part.driven, part.drivers, True)
+
+
+def _close(system, part: DynamicPartition, q_I: np.ndarray, t: float, q_guess: np.ndarray,
+           tol: float):
+    """(q (n,), ClosureValue with Jacobian at q, or None for a tree)."""
+    q = np.array(q_guess, dtype=float)
+    q[part.independent] = q_I
+    for i, d in zip(part.driven, part.drivers):
+        q[i] = d.value(t)
+    if not part.has_loops:
+        return q, None
+    q, c, _ = solve_position(system.mechanism, q, part.kin, tol=tol)
+    return q, c
 
 
 def complete_position(system, part: DynamicPartition, q_I: np.ndarray, t: float,
@@ -127,14 +152,8 @@ def complete_position(system, part: DynamicPartition, q_I: np.ndarray, t: float,
 
     Raises ClosureError / SingularConfigurationError from position analysis.
     """
-    q = np.array(q_guess, dtype=float)
-    q[part.independent] = q_I
-    for i, d in zip(part.driven, part.drivers):
-        q[i] = d.value(t)
-    if not part.has_loops:
-        return q, None
-    q, c, _ = solve_position(system.mechanism, q, part.kin, tol=tol)
-    return q, c.J
+    q, c = _close(system, part, q_I, t, q_guess, tol)
+    return q, None if c is None else c.J
 
 
 def velocity_transform(system, part: DynamicPartition, J: np.ndarray | None,
@@ -153,21 +172,25 @@ def velocity_transform(system, part: DynamicPartition, J: np.ndarray | None,
 
 def reduced_state(system, part: DynamicPartition, q_I: np.ndarray, qd_I: np.ndarray, t: float,
                   q_guess: np.ndarray) -> ReducedState:
-    """Close the loops, build q', and solve the reduced equations for q''_I."""
+    """Close the loops, build q', and solve the reduced equations for q''_I.
+
+    One evaluation of the link poses serves the position Newton's last iterate, the
+    velocity transform, gamma and the equations (the rates are added to it once q' is known).
+    """
     mech = system.mechanism
-    q, J = complete_position(system, part, q_I, t, q_guess)
-    B, Bp, b = velocity_transform(system, part, J, t)
+    q, cv = _close(system, part, q_I, t, q_guess, 1e-12)
+    B, Bp, b = velocity_transform(system, part, None if cv is None else cv.J, t)
     qd = B @ qd_I + b
     c = np.zeros(mech.n)
     for i, d in zip(part.driven, part.drivers):
         c[i] = d.accel(t)
-    tree = None
+    tree, residual = None, np.zeros(0)
     dep = part.kin.dependent
-    if part.has_loops:  # one evaluation gives gamma and the tree the equations need
-        cg = closure(mech, q, qd, jacobian=True)
-        tree = cg.tree
+    if cv is not None:
+        cg = closure_rates(mech, cv, q, qd)
+        tree, residual = cg.tree, cv.r
         if dep.size:
-            R = J[part.kin.rows]
+            R = cv.J[part.kin.rows]
             c[dep] = np.linalg.solve(R[:, dep], cg.gamma[part.kin.rows] - R @ c)
     terms = equation_terms(system, q, qd, t, tree=tree)
     M = terms.M
@@ -176,4 +199,5 @@ def reduced_state(system, part: DynamicPartition, q_I: np.ndarray, qd_I: np.ndar
     qdd = B @ qdd_I + c
     # driver forces: the drivers' generalized reactions, B_p^T (M q'' - rhs)
     lam = Bp.T @ (M @ qdd - terms.rhs)
-    return ReducedState(q, qd, qdd, qdd_I, B, terms, lam)
+    return ReducedState(q, qd, qdd, qdd_I, B, terms, lam, residual, Bp,
+                        None if cv is None else cv.J)

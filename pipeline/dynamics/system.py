@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import cached_property
 from types import MappingProxyType
 from typing import Any
 
@@ -102,3 +103,10 @@ class System:
         object.__setattr__(self, "drivers", MappingProxyType(dict(self.drivers)))
         object.__setattr__(self, "gravity", validate_array(self.gravity, (3,), "gravity"))
         object.__setattr__(self, "forces", tuple(self.forces))
+
+    @cached_property  # used at every evaluation of the equations of motion
+    def mass_links(self) -> tuple[tuple[int, BodyMass, np.ndarray], ...]:
+        """(link index, BodyMass, modal indices in q) of every link that has mass."""
+        mech = self.mechanism
+        return tuple((mech.link_index(name), body, mech.modal_index[mech.link_index(name)])
+                     for name, body in self.bodies.items())

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.dynamics.mass_matrix import all_link_terms
+from pipeline.dynamics.mass_matrix import all_link_terms, stacked
 
 __all__ = ["velocity_terms"]
 
@@ -43,16 +43,20 @@ def velocity_terms(system, tree, q: np.ndarray, qd: np.ndarray, links=None) -> n
     links : ``all_link_terms(system, q)`` (computed if None).
     """
     n = system.mechanism.n
+    links = all_link_terms(system, q) if links is None else links
+    if not links:
+        return np.zeros(n)
+    D, J = stacked(tree, links, n)
+    lis = [item[0] for item in links]
+    Z = tree.Add[lis] @ J.transpose(0, 2, 1)  # (L, 4, 4)
     h = np.zeros(n)
-    for li, body, idx, J, N in links if links is not None else all_link_terms(system, q):
-        A, dA, Ad, Add = tree.A[li], tree.dA[li], tree.Ad[li], tree.Add[li]
-        Z = Add @ J.T
+    for k, (li, body, idx, _, N) in enumerate(links):
         if idx.size:
+            A, Ad, Add = tree.A[li], tree.Ad[li], tree.Add[li]
             m = idx.size
             etad = qd[idx]
             Ne = (etad @ N.reshape(m, 16)).reshape(4, 4)
-            Z = Z + 2.0 * Ad @ Ne.T
+            Z[k] += 2.0 * Ad @ Ne.T
             G = (etad @ body.Cpp.transpose(1, 0, 2, 3).reshape(m, 16 * m)).reshape(m, 4, 4)
             h[idx] += np.sum(A * (Add @ N + 2.0 * Ad @ G.transpose(0, 2, 1)), axis=(1, 2))
-        h += dA.reshape(n, 16) @ Z.reshape(16)
-    return h
+    return h + D @ Z.reshape(-1)
