@@ -51,7 +51,8 @@ class GeneralizedAlpha(OdeSolver):
     n_second : k, the number of second-order coordinates (q) in y.
     step : fixed step h, s (the last one is shortened to land on t_bound).
     rho_inf : spectral radius at infinite frequency (1: no numerical damping; 0.8 default).
-    rtol, atol : Newton tolerance on the acceleration residual.
+    rtol, atol : Newton tolerance: the changes of q and v the acceleration residual would still
+        cause must be below atol + rtol |q| and atol + rtol |v| (per coordinate).
     max_step : ignored (the step is fixed); accepted for a common call signature.
     """
 
@@ -68,6 +69,7 @@ class GeneralizedAlpha(OdeSolver):
         if not (step and np.isfinite(step) and step > 0):
             raise ConfigError(f"generalized_alpha: step: expected a time step > 0 s, got {step}")
         self.k = int(n_second)
+        self.t_start = float(t0)
         self.h = float(step)
         self.am, self.af, self.beta, self.gamma = coefficients(rho_inf)
         self.rtol, self.atol = float(rtol), float(atol)
@@ -88,6 +90,14 @@ class GeneralizedAlpha(OdeSolver):
         q = y[:k] + h * y[k:2 * k] + h * h * ((0.5 - self.beta) * self.abar + self.beta * abar_new)
         v = y[k:2 * k] + h * ((1 - self.gamma) * self.abar + self.gamma * abar_new)
         return q, v, abar_new
+
+    def _converged(self, r, q, v, bq, bv) -> bool:
+        """Is the acceleration residual r (k,) small enough? Judged by what it does to the
+        step: the position and velocity changes it would still cause (bq r, bv r) must be
+        below atol + rtol |y| per coordinate, as scipy's solvers judge their error."""
+        r = np.abs(r)
+        return bool(np.all(bq * r <= self.atol + self.rtol * np.abs(q))
+                    and np.all(bv * r <= self.atol + self.rtol * np.abs(v)))
 
     def _eval(self, t, q, v, extras):
         return np.asarray(self.fun(t, np.concatenate([q, v, extras])), dtype=float)
@@ -122,8 +132,7 @@ class GeneralizedAlpha(OdeSolver):
             if not np.all(np.isfinite(f)):
                 return False, None, None, None
             r = a - f[k:2 * k]
-            if np.abs(r).max(initial=0.0) <= self.rtol * np.abs(f[k:2 * k]).max(initial=0.0) \
-                    + self.atol:
+            if self._converged(r, q, v, bq, bv):
                 extras = extras_old + 0.5 * h * (self.f[2 * k:] + f[2 * k:])
                 f[:k] = v
                 return True, np.concatenate([q, v, extras]), f, abar_new
@@ -153,8 +162,15 @@ class GeneralizedAlpha(OdeSolver):
                 return False, (f"generalized_alpha: Newton failed down to step {h:.3g} s at "
                                f"t = {self.t:.6g} s")
         self._old = (self.t, self.y, self.f)
-        self.t, self.y, self.f, self.abar = self.t + h, y_new, f_new, abar_new
+        self.t, self.y, self.f, self.abar = self._grid(self.t + h), y_new, f_new, abar_new
         return True, None
+
+    def _grid(self, t: float) -> float:
+        """t snapped to t0 + k h when within rounding of it (no drift over many steps,
+        so steps land on an output grid spaced by multiples of h)."""
+        k = round((t - self.t_start) / self.h)
+        tk = self.t_start + k * self.h
+        return min(tk, self.t_bound) if abs(t - tk) <= 1e-9 * self.h else t
 
     def _dense_output_impl(self):
         t0, y0, f0 = self._old

@@ -20,7 +20,6 @@ from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.core.progress import progress_bar
 from pipeline.dynamics.energy import energies
 from pipeline.dynamics.partition import partition_system, reduced_state, repartition
-from pipeline.kinematics.closure import closure_residual
 from pipeline.kinematics.failures import ClosureError, SingularConfigurationError
 from pipeline.solver.result import ENERGY_KEYS, SimulationResult
 
@@ -30,19 +29,41 @@ __all__ = ["run"]
 
 
 class _Rhs:
-    """Right-hand side with the last closed configuration as the Newton guess."""
+    """Right-hand side with the position Newton started from a prediction of the last
+    closed state (so that it usually converges without an iteration)."""
 
     def __init__(self, system, part, q_guess):
         self.system, self.part, self.guess, self.count = system, part, q_guess, 0
         self.t_last, self.steps, self.reselections = float("nan"), 0, []
         self.rejected, self.last_error = 0, None
         self.nI = part.independent.size
+        self.last = None  # (t, y[:2 nI], ReducedState) of the last evaluation
+
+    def predict(self, t, q_I):
+        """(n,) guess of the closed configuration at (t, q_I): second-order Taylor series
+        of the last state in time, corrected to first order for where q_I actually is."""
+        if self.last is None or self.last[2].B.shape[1] != q_I.size:
+            return self.guess
+        t0, _, st = self.last
+        dt = t - t0
+        q = st.q + dt * st.qd + (0.5 * dt * dt) * st.qdd
+        return q + st.B @ (q_I - q[self.part.independent])
 
     def state(self, t, y):
         nI = self.nI
-        st = reduced_state(self.system, self.part, y[:nI], y[nI:2 * nI], t, self.guess)
-        self.guess = st.q
+        q_I = y[:nI]
+        st = reduced_state(self.system, self.part, q_I, y[nI:2 * nI], t, self.predict(t, q_I))
+        self.guess, self.last = st.q, (t, y[:2 * nI].copy(), st)
         return st
+
+    def state_at(self, t, y):
+        """As :meth:`state`, reusing the last evaluation when it was at this very state
+        (an output time on a step end: an implicit step's last Newton evaluation)."""
+        if self.last is not None:
+            t0, y0, st = self.last
+            if abs(t - t0) <= _same_time(t) and np.array_equal(y0, y[:2 * self.nI]):
+                return st
+        return self.state(t, y)
 
     def __call__(self, t, y):
         self.count += 1
@@ -82,21 +103,30 @@ def _check(system, q0, qd0, t_span, t_eval, rtol, atol):
     return q0, qd0, t0, t1, te
 
 
+def _same_time(t: float) -> float:
+    """Tolerance (s) within which two times are the same output instant."""
+    return 1e-10 * max(1.0, abs(t))
+
+
 def _record(rhs, t, y, out):
-    st = rhs.state(t, y)
-    e = energies(rhs.system, st.terms.tree, st.q, st.qd)
+    st = rhs.state_at(t, y)
+    e = energies(rhs.system, st.terms.tree, st.q, st.qd, M=st.terms.M)
     e["dissipated"], e["driver_work"] = float(y[-1]), float(y[-2])
     e["total"] = (e["kinetic"] + e["gravity"] + e["elastic"] + e["forces"] + e["dissipated"]
                   - e["driver_work"])
-    r = closure_residual(rhs.system.mechanism, st.q)
+    r = st.residual
     out.append((t, st.q, st.qd, st.qdd, e, float(np.abs(r).max()) if r.size else 0.0,
                 st.driver_forces))
 
 
 def _reselect(solver, rhs, make):
     """Restart ``solver`` in better-conditioned independent coordinates if needed."""
-    new = repartition(rhs.system, rhs.part, rhs.guess)
+    J = None if rhs.last is None else rhs.last[2].J
+    new = repartition(rhs.system, rhs.part, rhs.guess, J=J)
     if new is None:
+        return solver
+    if np.array_equal(new.independent, rhs.part.independent):
+        rhs.part = new  # same coordinates, a new reference conditioning
         return solver
     st = rhs.state(solver.t, solver.y)
     rhs.part, rhs.nI = new, new.independent.size
@@ -118,7 +148,7 @@ def _march(solver, rhs, te, y0, progress, out, make):
     for k in progress_bar(range(te.size), total=te.size, description="simulating") if progress \
             else range(te.size):
         tk = te[k]
-        while solver.t < tk and solver.status == "running":
+        while solver.t < tk - _same_time(tk) and solver.status == "running":
             if rhs.steps:
                 solver = _reselect(solver, rhs, make)
             msg = solver.step()
@@ -127,7 +157,12 @@ def _march(solver, rhs, te, y0, progress, out, make):
                 why = f" (last position failure: {rhs.last_error})" if rhs.last_error else ""
                 return f"integrator failed at t = {solver.t:.6g} s: {msg}{why}", t_out
         s0 = time.perf_counter()
-        y = y0 if solver.t_old is None else solver.dense_output()(tk)
+        if solver.t_old is None:
+            y = y0
+        elif abs(solver.t - tk) <= _same_time(tk):  # on a step end: no interpolation
+            y = solver.y
+        else:
+            y = solver.dense_output()(tk)
         _record(rhs, tk, y, out)
         t_out += time.perf_counter() - s0
     return None, t_out
