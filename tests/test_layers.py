@@ -13,6 +13,7 @@ ONLY_IN = {
     "pyvista": ("post",),
     "pydantic": ("workflow",),
     "yaml": ("workflow",),
+    "numba": ("kinematics", "dynamics"),
 }
 #: subpackage -> pipeline subpackages it must not import (the solver side stays FE-free)
 FORBIDDEN = {

@@ -30,6 +30,11 @@ from pipeline.dynamics.mass_matrix import all_link_terms, mass_links, mass_matri
 from pipeline.dynamics.velocity_terms import velocity_terms
 from pipeline.kinematics.poses import TreeState, evaluate_tree
 
+try:  # the compiled sums (numba); mass_matrix, velocity_terms, gravity are the reference
+    from pipeline.dynamics.compiled import inertia_terms as _inertia_terms
+except ImportError:  # pragma: no cover - numba is a dependency
+    _inertia_terms = None
+
 __all__ = ["EquationTerms", "elastic_forces", "equation_terms", "equations"]
 
 
@@ -83,7 +88,7 @@ def _force_elements(system, tree, q, qd, t):
 
 
 def equation_terms(system, q: np.ndarray, qd: np.ndarray, t: float,
-                   tree: TreeState | None = None) -> EquationTerms:
+                   tree: TreeState | None = None, compiled: bool = True) -> EquationTerms:
     """All terms of the equations of motion at (q, qd, t).
 
     Parameters
@@ -91,15 +96,20 @@ def equation_terms(system, q: np.ndarray, qd: np.ndarray, t: float,
     q, qd : (n,) coordinates and rates.
     t : time, s.
     tree : TreeState at (q, qd) with dA, Ad, Add (computed if None).
+    compiled : M, h and gravity by :mod:`pipeline.dynamics.compiled` (same values to
+        rounding); False uses the numpy reference implementation.
     """
     q = np.asarray(q, dtype=float)
     qd = np.asarray(qd, dtype=float)
     if tree is None:
-        tree = evaluate_tree(system.mechanism, q, qd, derivatives=True)
-    links = all_link_terms(system, q)  # J(eta), N(eta) once for M, h and gravity
-    M = mass_matrix(system, tree, q, links)
-    h = velocity_terms(system, tree, q, qd, links)
-    Qg = gravity_force(system, tree, q, links)
+        tree = evaluate_tree(system.mechanism, q, qd, derivatives=True, compiled=compiled)
+    if compiled and _inertia_terms is not None:
+        M, h, Qg = _inertia_terms(system.compiled_masses, tree, q, qd, system.gravity)
+    else:
+        links = all_link_terms(system, q)  # J(eta), N(eta) once for M, h and gravity
+        M = mass_matrix(system, tree, q, links)
+        h = velocity_terms(system, tree, q, qd, links)
+        Qg = gravity_force(system, tree, q, links)
     Qe, Qd = elastic_forces(system, q, qd)
     Qf, Qnc = _force_elements(system, tree, q, qd, t)
     return EquationTerms(M, h, Qg, Qe, Qd, Qf, Qd + Qnc, tree)

@@ -104,6 +104,12 @@ class System:
         object.__setattr__(self, "gravity", validate_array(self.gravity, (3,), "gravity"))
         object.__setattr__(self, "forces", tuple(self.forces))
 
+    @cached_property
+    def compiled_masses(self):
+        """Flat mass data for :mod:`pipeline.dynamics.compiled` (built on first use)."""
+        from pipeline.dynamics.compiled import compile_masses  # numba loads only if used
+        return compile_masses(self)
+
     @cached_property  # used at every evaluation of the equations of motion
     def mass_links(self) -> tuple[tuple[int, BodyMass, np.ndarray], ...]:
         """(link index, BodyMass, modal indices in q) of every link that has mass."""

@@ -47,8 +47,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.kinematics.mechanism import Mechanism
-from pipeline.kinematics.poses import (Locals, TreeState, evaluate_tree, local_matrices,
-                                       local_rates, place_d, place_rates, tree_with_rates)
+from pipeline.kinematics.poses import (Locals, TreeState, _compiled_evaluate, evaluate_tree,
+                                       local_matrices, local_rates, place_d, place_rates,
+                                       tree_with_rates)
 
 _I = ([2, 0, 1], [1, 2, 0])  # vee(E) = (E[I] - E[I^T]) / 2
 _IT = ([1, 2, 0], [2, 0, 1])
@@ -85,9 +86,17 @@ def row_weights(mech: Mechanism) -> np.ndarray:
 
 
 def closure(mech: Mechanism, q: np.ndarray, qd: np.ndarray | None = None,
-            jacobian: bool = True) -> ClosureValue:
-    """Residual, Jacobian (if ``jacobian``) and gamma (if ``qd``) at q (n,)."""
+            jacobian: bool = True, compiled: bool = True) -> ClosureValue:
+    """Residual, Jacobian (if ``jacobian``) and gamma (if ``qd``) at q (n,).
+
+    ``compiled``: use the compiled pass of :mod:`pipeline.kinematics.compiled` (same
+    values to rounding); False runs the numpy reference implementation.
+    """
     q = np.asarray(q, dtype=float)
+    if compiled and _compiled_evaluate is not None:
+        ev = _compiled_evaluate(mech.compiled, q, qd)
+        tree = TreeState(ev.A, ev.dA, ev.Ad, ev.Add)
+        return ClosureValue(ev.r, ev.J if jacobian else None, ev.gamma, tree)
     loc = local_matrices(mech, q, qd, jacobian)
     tree = evaluate_tree(mech, q, qd, jacobian, loc)
     K, n = len(mech.loop_steps), mech.n
@@ -137,7 +146,10 @@ def _gamma(mech: Mechanism, loc: Locals, tree: TreeState) -> np.ndarray:
 def closure_rates(mech: Mechanism, c: ClosureValue, q: np.ndarray,
                   qd: np.ndarray) -> ClosureValue:
     """``c`` (evaluated at q with the Jacobian, no rates) completed with gamma and the tree's
-    A', A'' at the rates qd (n,): the positions are not evaluated again."""
+    A', A'' at the rates qd (n,): the numpy path does not evaluate the positions again
+    (the compiled pass, which holds no local matrices, evaluates everything at once)."""
+    if c.local is None:
+        return closure(mech, q, qd)
     loc = local_rates(mech, q, np.asarray(qd, dtype=float), c.local)
     tree = tree_with_rates(mech, c.tree, loc)
     g = _gamma(mech, loc, tree) if mech.loop_steps else np.zeros(0)

@@ -188,6 +188,12 @@ class Mechanism:
         return tuple(l.name for l in self.links)
 
     @cached_property
+    def compiled(self):
+        """The flat arrays of :mod:`pipeline.kinematics.compiled` (built on first use)."""
+        from pipeline.kinematics.compiled import compile_mechanism  # numba loads only if used
+        return compile_mechanism(self)
+
+    @cached_property
     def modal_coordinates(self) -> np.ndarray:
         """(n_eta,) indices of all modal coordinates (read-only)."""
         idx = np.concatenate([_NO_INDEX, *self.modal_index]).astype(int)

@@ -36,6 +36,11 @@ import numpy as np
 
 from pipeline.kinematics.mechanism import Mechanism, Step
 
+try:  # the compiled pass (numba); this module's numpy code is the reference and the fallback
+    from pipeline.kinematics.compiled import evaluate as _compiled_evaluate
+except ImportError:  # pragma: no cover - numba is a dependency
+    _compiled_evaluate = None
+
 __all__ = ["Locals", "StepValue", "TreeState", "evaluate_tree", "local_matrices", "local_rates",
            "place_d", "place_rates", "step_local", "step_pose", "step_value", "tree_with_rates"]
 
@@ -243,7 +248,8 @@ def place_rates(k: int, loc: Locals, mech: Mechanism, Y: np.ndarray) -> np.ndarr
 
 
 def evaluate_tree(mech: Mechanism, q: np.ndarray, qd: np.ndarray | None = None,
-                  derivatives: bool = True, loc: Locals | None = None) -> TreeState:
+                  derivatives: bool = True, loc: Locals | None = None,
+                  compiled: bool = True) -> TreeState:
     """Poses of every link at q (n,); with ``derivatives`` also dA/dq; with qd also A', A''.
 
     Parameters
@@ -252,7 +258,12 @@ def evaluate_tree(mech: Mechanism, q: np.ndarray, qd: np.ndarray | None = None,
     qd : (n,) coordinate rates, optional.
     derivatives : compute dA/dq (L, n, 4, 4).
     loc : local matrices already evaluated at (q, qd) (see :func:`local_matrices`).
+    compiled : without ``loc``, use the compiled pass (:mod:`pipeline.kinematics.compiled`);
+        False runs this module's numpy reference implementation.
     """
+    if compiled and loc is None and _compiled_evaluate is not None:
+        ev = _compiled_evaluate(mech.compiled, np.asarray(q, dtype=float), qd)
+        return TreeState(ev.A, ev.dA if derivatives else None, ev.Ad, ev.Add)
     L, n = len(mech.links), mech.n
     if loc is None:
         loc = local_matrices(mech, q, qd, derivatives)
