@@ -129,11 +129,18 @@ def numerical_rank(J: np.ndarray, rtol: float = RANK_RTOL) -> int:
     return int(np.sum(s > rtol * s[0])) if s[0] > 0 else 0
 
 
+def _pivots(B: np.ndarray) -> np.ndarray:
+    """Column order of QR with column pivoting of B, with near-ties going to the earlier
+    column: columns of equal norm are common (symmetric linkages, normalised columns),
+    and the choice must not hang on rounding (BLAS, evaluation order)."""
+    tie = 1.0 - 1e-9 * np.arange(B.shape[1])
+    return sla.qr(B * tie, mode="r", pivoting=True)[1]
+
+
 def _independent_rows(Jn: np.ndarray, rank: int) -> np.ndarray:
     if rank == 0:
         return np.zeros(0, dtype=int)
-    piv = sla.qr(Jn.T, mode="r", pivoting=True)[1]
-    return np.sort(piv[:rank])
+    return np.sort(_pivots(Jn.T)[:rank])
 
 
 def _null_vectors(B: np.ndarray, rtol: float = RANK_RTOL, atol: float = 0.0) -> np.ndarray:
@@ -194,7 +201,7 @@ def select_partition(mech: Mechanism, J: np.ndarray, prescribed, *, t: float | N
     r_exp = rank if expected_rank is None else expected_rank
     if rank == 0 and r_exp == 0:
         return Partition(rows, np.zeros(0, dtype=int), prescribed, cand, 1.0)
-    piv = sla.qr(B, mode="r", pivoting=True)[1] if cand.size and rank else np.zeros(0, int)
+    piv = _pivots(B) if cand.size and rank else np.zeros(0, int)
     dep = np.sort(cand[piv[:rank]]) if cand.size >= rank else cand
     s = np.linalg.svd(Jn[rows][:, dep], compute_uv=False) if dep.size else np.zeros(1)
     rc = float(s[-1] / s[0]) if dep.size == rank and s[0] > 0 else 0.0
