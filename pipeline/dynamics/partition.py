@@ -34,8 +34,8 @@ from pipeline.kinematics.analysis import solve_position, velocity_map
 from pipeline.kinematics.closure import closure, closure_rates
 from pipeline.kinematics.partition import Partition, normalised_jacobian, select_partition
 
-__all__ = ["DynamicPartition", "ReducedState", "complete_position", "partition_system",
-           "reduced_state", "repartition", "velocity_transform"]
+__all__ = ["DynamicPartition", "ReducedState", "complete_position", "driver_state",
+           "partition_system", "reduced_state", "repartition", "velocity_transform"]
 
 
 @dataclass(frozen=True)
@@ -132,13 +132,22 @@ def repartition(system, part: DynamicPartition, q: np.ndarray, factor: float = 1
     return DynamicPartition(kin, ind, part.driven, part.drivers, True)
 
 
+def driver_state(part: DynamicPartition, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(values, rates, accelerations), each (p,), of the drivers at t (s)."""
+    p = len(part.drivers)
+    out = np.empty((3, p))
+    for k, d in enumerate(part.drivers):
+        out[0, k], out[1, k], out[2, k] = d.value(t), d.rate(t), d.accel(t)
+    return out[0], out[1], out[2]
+
+
 def _close(system, part: DynamicPartition, q_I: np.ndarray, t: float, q_guess: np.ndarray,
-           tol: float):
-    """(q (n,), ClosureValue with Jacobian at q, or None for a tree)."""
+           tol: float, values: np.ndarray | None = None):
+    """(q (n,), ClosureValue with Jacobian at q, or None for a tree); ``values``: the
+    drivers' values at t if the caller has them."""
     q = np.array(q_guess, dtype=float)
     q[part.independent] = q_I
-    for i, d in zip(part.driven, part.drivers):
-        q[i] = d.value(t)
+    q[part.driven] = driver_state(part, t)[0] if values is None else values
     if not part.has_loops:
         return q, None
     q, c, _ = solve_position(system.mechanism, q, part.kin, tol=tol)
@@ -157,7 +166,8 @@ def complete_position(system, part: DynamicPartition, q_I: np.ndarray, t: float,
 
 
 def velocity_transform(system, part: DynamicPartition, J: np.ndarray | None,
-                       t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                       t: float, rates: np.ndarray | None = None
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """B (n, nI), B_p (n, p) and b (n,) with q' = B q'_I + b, b = B_p (driver rates).
 
     B_p [i, k] = dq_i / dq_p_k: how the k-th driven coordinate moves the others
@@ -166,24 +176,27 @@ def velocity_transform(system, part: DynamicPartition, J: np.ndarray | None,
     I, P = part.independent, part.driven
     both = velocity_map(J, part.kin, np.concatenate([I, P]), system.mechanism.n)
     B, Bp = both[:, :I.size], both[:, I.size:]
-    rates = np.array([d.rate(t) for d in part.drivers], dtype=float)
+    if rates is None:
+        rates = np.array([d.rate(t) for d in part.drivers], dtype=float)
     return B, Bp, Bp @ rates
 
 
 def reduced_state(system, part: DynamicPartition, q_I: np.ndarray, qd_I: np.ndarray, t: float,
-                  q_guess: np.ndarray) -> ReducedState:
+                  q_guess: np.ndarray, drive=None) -> ReducedState:
     """Close the loops, build q', and solve the reduced equations for q''_I.
 
     One evaluation of the link poses serves the position Newton's last iterate, the
-    velocity transform, gamma and the equations (the rates are added to it once q' is known).
+    velocity transform, gamma and the equations (the rates are added to it once q' is
+    known). ``drive``: :func:`driver_state` at t if the caller has it (an implicit
+    integrator evaluates many states at one time).
     """
     mech = system.mechanism
-    q, cv = _close(system, part, q_I, t, q_guess, 1e-12)
-    B, Bp, b = velocity_transform(system, part, None if cv is None else cv.J, t)
+    values, rates, accels = driver_state(part, t) if drive is None else drive
+    q, cv = _close(system, part, q_I, t, q_guess, 1e-12, values)
+    B, Bp, b = velocity_transform(system, part, None if cv is None else cv.J, t, rates)
     qd = B @ qd_I + b
     c = np.zeros(mech.n)
-    for i, d in zip(part.driven, part.drivers):
-        c[i] = d.accel(t)
+    c[part.driven] = accels
     tree, residual = None, np.zeros(0)
     dep = part.kin.dependent
     if cv is not None:

@@ -78,6 +78,7 @@ class GeneralizedAlpha(OdeSolver):
             raise ConfigError("generalized_alpha: the start state cannot be evaluated")
         self.abar = self.f[self.k:2 * self.k].copy()  # acceleration-like variable
         self.J = None  # (df/dq, df/dv) at some recent state
+        self.S = None  # (h, iteration matrix dr/da for steps of size h)
         self.jac_updates = 0
         self.newton_iterations = 0
         self._old = None
@@ -124,6 +125,7 @@ class GeneralizedAlpha(OdeSolver):
         a = self.f[k:2 * k].copy()
         extras_old = self.y[2 * k:]
         refreshed = False
+        prev = None  # (a, r) of the previous iteration, for the secant update
         for it in range(3 * self.MAX_NEWTON):
             q, v, abar_new = self._state(a, h)
             extras = extras_old + 0.5 * h * self.f[2 * k:]  # predictor; corrected below
@@ -139,12 +141,22 @@ class GeneralizedAlpha(OdeSolver):
             # slow convergence means the iteration matrix is stale: refresh it once
             if self.J is None or (it == self.REFRESH_AFTER and not refreshed):
                 self.J = self._jacobian(t1, q, v, extras, f)
-                refreshed = True
+                self.S, refreshed = None, True
             elif it >= 2 * self.MAX_NEWTON:
                 return False, None, None, None
-            S = np.eye(k) - bq * self.J[0] - bv * self.J[1]
+            if self.S is None or self.S[0] != h:
+                self.S = (h, np.eye(k) - bq * self.J[0] - bv * self.J[1])
+            elif prev is not None:
+                # Broyden's update: the iteration matrix learns dr/da from the iterates
+                # already paid for (no extra evaluation), and keeps it for later steps
+                da, dr = a - prev[0], r - prev[1]
+                dd = float(da @ da)
+                if dd > 0.0:
+                    S = self.S[1]
+                    self.S = (h, S + np.outer(dr - S @ da, da / dd))
+            prev = (a, r)
             try:
-                a = a - np.linalg.solve(S, r)
+                a = a - np.linalg.solve(self.S[1], r)
             except np.linalg.LinAlgError:
                 return False, None, None, None
         return False, None, None, None
@@ -156,7 +168,7 @@ class GeneralizedAlpha(OdeSolver):
             ok, y_new, f_new, abar_new = self._try(h)
             if ok:
                 break
-            self.J = None  # a stale iteration matrix is the usual culprit
+            self.J = self.S = None  # a stale iteration matrix is the usual culprit
             h *= 0.5
             if h < 1e-6 * self.h:
                 return False, (f"generalized_alpha: Newton failed down to step {h:.3g} s at "

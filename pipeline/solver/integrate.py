@@ -19,7 +19,8 @@ import numpy as np
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.core.progress import progress_bar
 from pipeline.dynamics.energy import energies
-from pipeline.dynamics.partition import partition_system, reduced_state, repartition
+from pipeline.dynamics.partition import (driver_state, partition_system, reduced_state,
+                                         repartition)
 from pipeline.kinematics.failures import ClosureError, SingularConfigurationError
 from pipeline.solver.result import ENERGY_KEYS, SimulationResult
 
@@ -38,6 +39,7 @@ class _Rhs:
         self.rejected, self.last_error = 0, None
         self.nI = part.independent.size
         self.last = None  # (t, y[:2 nI], ReducedState) of the last evaluation
+        self._drive = None  # (t, driver_state at t)
 
     def predict(self, t, q_I):
         """(n,) guess of the closed configuration at (t, q_I): second-order Taylor series
@@ -52,7 +54,10 @@ class _Rhs:
     def state(self, t, y):
         nI = self.nI
         q_I = y[:nI]
-        st = reduced_state(self.system, self.part, q_I, y[nI:2 * nI], t, self.predict(t, q_I))
+        if self._drive is None or self._drive[0] != t:  # Newton iterations share a time
+            self._drive = (t, driver_state(self.part, t))
+        st = reduced_state(self.system, self.part, q_I, y[nI:2 * nI], t, self.predict(t, q_I),
+                           self._drive[1])
         self.guess, self.last = st.q, (t, y[:2 * nI].copy(), st)
         return st
 

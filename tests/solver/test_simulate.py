@@ -120,11 +120,11 @@ def test_position_failure_in_a_trial_stage_rejects_the_step(monkeypatch, method)
                    progress=False)
     real, fired = integ.reduced_state, []
 
-    def flaky(system, part, qI, qdI, t, guess):
+    def flaky(system, part, qI, qdI, t, guess, *drive):
         if t > 0.1 and not fired:
             fired.append(t)
             raise ClosureError("injected", "L1", "J", np.zeros(6), guess)
-        return real(system, part, qI, qdI, t, guess)
+        return real(system, part, qI, qdI, t, guess, *drive)
 
     monkeypatch.setattr(integ, "reduced_state", flaky)
     r = simulate(s, q0, q0, (0, 0.3), te, method=method, rtol=1e-9, atol=1e-9,
