@@ -23,6 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from pipeline.kinematics.compiled import _kernel as _kinematics
+
 __all__ = ["CompiledMasses", "compile_masses", "inertia_terms"]
 
 
@@ -188,3 +190,104 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp):
             _mmt_add(Ad[li], Gm[a], 2.0, T2)
             h[idx[b, a]] += _frob(Al, T2)
     return M, h, Qg
+
+
+# --------------------------------------------------------------------------- fused state
+def closed_state(kin, masses: CompiledMasses, q_guess: np.ndarray, rows: np.ndarray,
+                 dep: np.ndarray, cols: np.ndarray, rates_cols: np.ndarray,
+                 accels_cols: np.ndarray, weights: np.ndarray, tol: float, gravity4: np.ndarray,
+                 max_iter: int = 6):
+    """One machine-code pass for a reduced state of a closed-loop system.
+
+    Newton on the dependent coordinates ``dep`` (closure rows ``rows``, weighted max-norm
+    tolerance ``tol`` with row ``weights``) from ``q_guess`` (n,), whose other entries are
+    final; then the velocity map X = dq/dq[cols] (n, c), q' = X rates_cols, the closure
+    gamma, the acceleration part c (n,) of q'' = X q''[cols] + c with q''[cols] =
+    ``accels_cols`` where given (the drivers; zero for the unknown ones), and M, h and
+    the gravity force (gravity4: (4,) homogeneous, m/s^2) at (q, q').
+
+    Returns None if Newton did not converge in ``max_iter`` plain iterations (the caller
+    falls back to the damped, least-squares-backed position analysis), else
+    (q, r, J, X, qd, c, A, dA, Ad, Add, M, h, Qg).
+    """
+    out = _closed_state(np.array(q_guess, dtype=float), rows, dep, cols,
+                        np.ascontiguousarray(rates_cols, dtype=float),
+                        np.ascontiguousarray(accels_cols, dtype=float), weights, tol, max_iter,
+                        gravity4, kin.n_links,
+                        kin.root, kin.frm, kin.n_modes, kin.eta, kin.pose, kin.dS,
+                        kin.n_motions, kin.kind, kin.gen, kin.gen2, kin.qi, kin.tail, kin.order,
+                        kin.slot, kin.loops, kin.depends, kin.loop_depends, masses.link,
+                        masses.n_modes, masses.idx, masses.C, masses.Cp, masses.Cpp)
+    return out[1:] if out[0] else None
+
+
+@njit(cache=True)
+def _closed_state(q, rows, dep, cols, rates_cols, accels_cols, weights, tol, max_iter, g, L,
+                  root, frm,
+                  n_modes, eta, pose, dS, n_motions, kind, gen, gen2, qi, tail, order, slot,
+                  loops, depends, loop_depends, link, m_modes, idx, C, Cp, Cpp):
+    n = q.shape[0]
+    nd, nc = dep.shape[0], cols.shape[0]
+    qd = np.zeros(n)
+    ok = False
+    for it in range(max_iter + 1):
+        A, dA, Ad, Add, r, J, gam = _kinematics(q, qd, False, L, root, frm, n_modes, eta, pose,
+                                                dS, n_motions, kind, gen, gen2, qi, tail, order,
+                                                slot, loops, depends, loop_depends)
+        err = 0.0
+        for i in range(r.shape[0]):
+            err = max(err, abs(weights[i] * r[i]))
+        if err <= tol:
+            ok = True
+            break
+        if it == max_iter:
+            break
+        R = np.empty((nd, nd))
+        b = np.empty(nd)
+        for a in range(nd):
+            b[a] = -r[rows[a]]
+            for c in range(nd):
+                R[a, c] = J[rows[a], dep[c]]
+        dx = np.linalg.solve(R, b)
+        for c in range(nd):
+            q[dep[c]] += dx[c]
+    X = np.zeros((n, nc))
+    cacc = np.zeros(n)
+    if not ok:
+        return False, q, r, J, X, qd, cacc, A, dA, Ad, Add, np.zeros((n, n)), np.zeros(n), \
+            np.zeros(n)
+    R = np.empty((nd, nd))
+    rhs = np.empty((nd, nc))
+    for a in range(nd):
+        for c in range(nd):
+            R[a, c] = J[rows[a], dep[c]]
+        for c in range(nc):
+            rhs[a, c] = -J[rows[a], cols[c]]
+    for c in range(nc):
+        X[cols[c], c] = 1.0
+    lu_solve_rhs = np.linalg.solve(R, rhs)
+    for a in range(nd):
+        for c in range(nc):
+            X[dep[a], c] = lu_solve_rhs[a, c]
+    for i in range(n):
+        s = 0.0
+        for c in range(nc):
+            s += X[i, c] * rates_cols[c]
+        qd[i] = s
+    A, dA, Ad, Add, r2, J2, gam = _kinematics(q, qd, True, L, root, frm, n_modes, eta, pose, dS,
+                                              n_motions, kind, gen, gen2, qi, tail, order, slot,
+                                              loops, depends, loop_depends)
+    # c: q'' with the unknown q''[cols] = 0, i.e. R_dep c_dep = gamma - R_cols accels_cols
+    b = np.empty(nd)
+    for a in range(nd):
+        s = gam[rows[a]]
+        for c in range(nc):
+            s += rhs[a, c] * accels_cols[c]
+        b[a] = s
+    cd = np.linalg.solve(R, b)
+    for c in range(nc):
+        cacc[cols[c]] = accels_cols[c]
+    for a in range(nd):
+        cacc[dep[a]] = cd[a]
+    M, h, Qg = _kernel(q, qd, True, A, dA, Ad, Add, g, link, m_modes, idx, C, Cp, Cpp)
+    return True, q, r, J, X, qd, cacc, A, dA, Ad, Add, M, h, Qg

@@ -88,7 +88,8 @@ def _force_elements(system, tree, q, qd, t):
 
 
 def equation_terms(system, q: np.ndarray, qd: np.ndarray, t: float,
-                   tree: TreeState | None = None, compiled: bool = True) -> EquationTerms:
+                   tree: TreeState | None = None, compiled: bool = True,
+                   inertia: tuple | None = None) -> EquationTerms:
     """All terms of the equations of motion at (q, qd, t).
 
     Parameters
@@ -98,12 +99,15 @@ def equation_terms(system, q: np.ndarray, qd: np.ndarray, t: float,
     tree : TreeState at (q, qd) with dA, Ad, Add (computed if None).
     compiled : M, h and gravity by :mod:`pipeline.dynamics.compiled` (same values to
         rounding); False uses the numpy reference implementation.
+    inertia : (M, h, Q_gravity) at this state if the caller has them.
     """
     q = np.asarray(q, dtype=float)
     qd = np.asarray(qd, dtype=float)
     if tree is None:
         tree = evaluate_tree(system.mechanism, q, qd, derivatives=True, compiled=compiled)
-    if compiled and _inertia_terms is not None:
+    if inertia is not None:
+        M, h, Qg = inertia
+    elif compiled and _inertia_terms is not None:
         M, h, Qg = _inertia_terms(system.compiled_masses, tree, q, qd, system.gravity)
     else:
         links = all_link_terms(system, q)  # J(eta), N(eta) once for M, h and gravity

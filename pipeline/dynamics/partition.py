@@ -32,6 +32,12 @@ import numpy as np
 from pipeline.dynamics.equations import EquationTerms, equation_terms
 from pipeline.kinematics.analysis import solve_position, velocity_map
 from pipeline.kinematics.closure import closure, closure_rates
+from pipeline.kinematics.poses import TreeState
+
+try:  # the fused compiled pass (numba); the code below is the reference and the fallback
+    from pipeline.dynamics.compiled import closed_state as _closed_state
+except ImportError:  # pragma: no cover - numba is a dependency
+    _closed_state = None
 from pipeline.kinematics.partition import Partition, normalised_jacobian, select_partition
 
 __all__ = ["DynamicPartition", "ReducedState", "complete_position", "driver_state",
@@ -137,7 +143,10 @@ def driver_state(part: DynamicPartition, t: float) -> tuple[np.ndarray, np.ndarr
     p = len(part.drivers)
     out = np.empty((3, p))
     for k, d in enumerate(part.drivers):
-        out[0, k], out[1, k], out[2, k] = d.value(t), d.rate(t), d.accel(t)
+        if hasattr(d, "state"):  # Driver: all three in one pass
+            out[:, k] = d.state(t)
+        else:  # any object with value/rate/accel
+            out[0, k], out[1, k], out[2, k] = d.value(t), d.rate(t), d.accel(t)
     return out[0], out[1], out[2]
 
 
@@ -192,6 +201,10 @@ def reduced_state(system, part: DynamicPartition, q_I: np.ndarray, qd_I: np.ndar
     """
     mech = system.mechanism
     values, rates, accels = driver_state(part, t) if drive is None else drive
+    if _closed_state is not None and part.has_loops and part.kin.dependent.size:
+        st = _compiled_state(system, part, q_I, qd_I, t, q_guess, values, rates, accels)
+        if st is not None:
+            return st
     q, cv = _close(system, part, q_I, t, q_guess, 1e-12, values)
     B, Bp, b = velocity_transform(system, part, None if cv is None else cv.J, t, rates)
     qd = B @ qd_I + b
@@ -206,11 +219,40 @@ def reduced_state(system, part: DynamicPartition, q_I: np.ndarray, qd_I: np.ndar
             R = cv.J[part.kin.rows]
             c[dep] = np.linalg.solve(R[:, dep], cg.gamma[part.kin.rows] - R @ c)
     terms = equation_terms(system, q, qd, t, tree=tree)
-    M = terms.M
-    Mr = B.T @ M @ B
-    qdd_I = np.linalg.solve(Mr, B.T @ (terms.rhs - M @ c))
+    return _solve_reduced(q, qd, B, Bp, c, terms, residual, None if cv is None else cv.J)
+
+
+def _solve_reduced(q, qd, B, Bp, c, terms, residual, J) -> ReducedState:
+    """(B^T M B) q''_I = B^T (rhs - M c), q'' = B q''_I + c and the driver forces."""
+    M, rhs = terms.M, terms.rhs
+    qdd_I = np.linalg.solve(B.T @ M @ B, B.T @ (rhs - M @ c))
     qdd = B @ qdd_I + c
     # driver forces: the drivers' generalized reactions, B_p^T (M q'' - rhs)
-    lam = Bp.T @ (M @ qdd - terms.rhs)
-    return ReducedState(q, qd, qdd, qdd_I, B, terms, lam, residual, Bp,
-                        None if cv is None else cv.J)
+    lam = Bp.T @ (M @ qdd - rhs)
+    return ReducedState(q, qd, qdd, qdd_I, B, terms, lam, residual, Bp, J)
+
+
+def _compiled_state(system, part: DynamicPartition, q_I, qd_I, t, q_guess, values, rates,
+                    accels) -> ReducedState | None:
+    """:func:`reduced_state` by the fused compiled pass (plain Newton from q_guess); None
+    when that Newton does not converge or its block is singular, so that the caller runs
+    the damped, least-squares-backed position analysis instead."""
+    mech = system.mechanism
+    I, P, kin = part.independent, part.driven, part.kin
+    q0 = np.array(q_guess, dtype=float)
+    q0[I] = q_I
+    q0[P] = values
+    nI = I.size
+    try:
+        out = _closed_state(mech.compiled, system.compiled_masses, q0, kin.rows, kin.dependent,
+                            np.concatenate([I, P]), np.concatenate([qd_I, rates]),
+                            np.concatenate([np.zeros(nI), accels]), mech.row_weights,
+                            1e-12, system.gravity4)
+    except np.linalg.LinAlgError:
+        return None
+    if out is None:
+        return None
+    q, r, J, X, qd, c, A, dA, Ad, Add, M, h, Qg = out
+    B, Bp = X[:, :nI], X[:, nI:]
+    terms = equation_terms(system, q, qd, t, tree=TreeState(A, dA, Ad, Add), inertia=(M, h, Qg))
+    return _solve_reduced(q, qd, B, Bp, c, terms, r, J)

@@ -105,6 +105,11 @@ class System:
         object.__setattr__(self, "forces", tuple(self.forces))
 
     @cached_property
+    def gravity4(self) -> np.ndarray:
+        """(4,) gravity as a homogeneous direction [g, 0], m/s^2."""
+        return np.append(self.gravity, 0.0)
+
+    @cached_property
     def compiled_masses(self):
         """Flat mass data for :mod:`pipeline.dynamics.compiled` (built on first use)."""
         from pipeline.dynamics.compiled import compile_masses  # numba loads only if used

@@ -80,9 +80,7 @@ class ClosureValue:
 
 def row_weights(mech: Mechanism) -> np.ndarray:
     """(6 k,) weights making rows dimensionless: 1/length_scale on positions, 1 on rotations."""
-    w = np.ones(6 * len(mech.topology.loops))
-    w.reshape(-1, 6)[:, :3] = 1.0 / mech.length_scale
-    return w
+    return np.array(mech.row_weights)
 
 
 def closure(mech: Mechanism, q: np.ndarray, qd: np.ndarray | None = None,

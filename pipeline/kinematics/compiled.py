@@ -151,7 +151,7 @@ def evaluate(cm: CompiledMechanism, q: np.ndarray, qd: np.ndarray | None = None)
 
 
 # --------------------------------------------------------------------------- kernels
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _mm(X, Y, out):
     """out = X @ Y for 4x4 (out must not alias X or Y)."""
     for i in range(4):
@@ -160,7 +160,7 @@ def _mm(X, Y, out):
                 + X[i, 3] * Y[3, j]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _mm_add(X, Y, c, out):
     """out += c X @ Y for 4x4."""
     for i in range(4):
@@ -271,7 +271,7 @@ def _place(f, s, A, dA, Ad, Add, rates, n_modes, eta, n_motions, qi, M, dMe, dMx
         _mm_add(A[f], Mdd, 1.0, Pdd)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _abt_add(X, Y, c, out):
     """out += c X[:3, :3] @ Y[:3, :3]^T (rotation blocks of two 4x4 matrices)."""
     for i in range(3):

@@ -77,6 +77,11 @@ class Driver:
     def accel(self, t):  # pragma: no cover - abstract
         raise NotImplementedError
 
+    def state(self, t: float) -> tuple[float, float, float]:
+        """(value, rate, acceleration) at one time t, s; subclasses may do it in one pass
+        (a dynamics run asks for all three at every time step)."""
+        return float(self.value(t)), float(self.rate(t)), float(self.accel(t))
+
     def __add__(self, other) -> SumDriver:
         if isinstance(other, (int, float)) and not isinstance(other, bool):
             other = Constant(float(other))
@@ -108,6 +113,9 @@ class Constant(Driver):
 
     def accel(self, t):
         return out(t, 0.0)
+
+    def state(self, t: float) -> tuple[float, float, float]:
+        return float(self.level), 0.0, 0.0
 
     @classmethod
     def from_dict(cls, d: dict, where: str, base_dir: Path | None = None) -> Constant:

@@ -124,6 +124,15 @@ class SmoothStep(Driver):
         tau, _, _ = self._tau(t)
         return out(t, self.v0 + (self.v1 - self.v0) * self._s(tau, 0))
 
+    def state(self, t: float) -> tuple[float, float, float]:
+        T = self.t1 - self.t0
+        tau = min(max((float(t) - self.t0) / T, 0.0), 1.0)
+        inside = 0.0 < tau < 1.0
+        dv = self.v1 - self.v0
+        s0, s1, s2 = (self._s(tau, k) for k in range(3))
+        return (self.v0 + dv * float(s0), dv * float(s1) / T if inside else 0.0,
+                dv * float(s2) / T**2 if inside else 0.0)
+
     def rate(self, t):
         tau, inside, T = self._tau(t)
         return out(t, np.where(inside, (self.v1 - self.v0) * self._s(tau, 1) / T, 0.0))

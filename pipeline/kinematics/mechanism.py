@@ -188,6 +188,14 @@ class Mechanism:
         return tuple(l.name for l in self.links)
 
     @cached_property
+    def row_weights(self) -> np.ndarray:
+        """(6 k,) closure-row weights, 1/length_scale on positions, 1 on rotations (read-only)."""
+        w = np.ones(6 * len(self.topology.loops))
+        w.reshape(-1, 6)[:, :3] = 1.0 / self.length_scale
+        w.setflags(write=False)
+        return w
+
+    @cached_property
     def compiled(self):
         """The flat arrays of :mod:`pipeline.kinematics.compiled` (built on first use)."""
         from pipeline.kinematics.compiled import compile_mechanism  # numba loads only if used
@@ -227,8 +235,18 @@ class Mechanism:
 
     def marker(self, link: str, frame: str) -> Step:
         """Step giving the global pose of ``frame`` on ``link``: A_link S_frame(eta)."""
-        li = self.link_index(link)
-        return Step(li, self.links[li].frame(frame), self.modal_index[li], None, _NO_INDEX, None)
+        key = (link, frame)
+        step = self._marker_steps.get(key)
+        if step is None:  # built once: force elements ask at every evaluation
+            li = self.link_index(link)
+            step = Step(li, self.links[li].frame(frame), self.modal_index[li], None, _NO_INDEX,
+                        None)
+            self._marker_steps[key] = step
+        return step
+
+    @cached_property
+    def _marker_steps(self) -> dict:
+        return {}
 
     def row_names(self) -> tuple[str, ...]:
         """Names of the 6 closure rows of every loop, e.g. "L1 (cut 'D'): position z"."""

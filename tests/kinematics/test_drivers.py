@@ -73,6 +73,16 @@ def test_scalar_in_float_out_array_in_array_out(name):
         assert arr[1, 1] == f(float(grid[1, 1]))
 
 
+@pytest.mark.parametrize("name", sorted(SPECS))
+def test_state_is_value_rate_and_accel_in_one_call(name):
+    d = driver_from_dict(SPECS[name], name)
+    # also at the ends of the smooth steps and the table knots (tau clipped to [0, 1])
+    for t in np.concatenate([T_SMOOTH, [0.2, 2.2, 0.0, 3.0, 10.0]]):
+        v, r, a = d.state(float(t))
+        assert all(type(x) is float for x in (v, r, a))
+        assert (v, r, a) == pytest.approx((d.value(t), d.rate(t), d.accel(t)), abs=1e-15)
+
+
 def test_constant_and_ramp_closed_forms():
     assert Constant(0.7).value(12.0) == 0.7 and Constant(0.7).rate(1.0) == 0.0
     r = Ramp(t0=0.4, slope=-0.25, v0=0.3)
