@@ -274,7 +274,7 @@ def _closed_state(q, rows, dep, cols, rates_cols, accels_cols, weights, tol, max
         for c in range(nc):
             s += X[i, c] * rates_cols[c]
         qd[i] = s
-    A, dA, Ad, Add, r2, J2, gam = _kinematics(q, qd, True, L, root, frm, n_modes, eta, pose, dS,
+    A, dA, Ad, Add, _, _, gam = _kinematics(q, qd, True, L, root, frm, n_modes, eta, pose, dS,
                                               n_motions, kind, gen, gen2, qi, tail, order, slot,
                                               loops, depends, loop_depends)
     # c: q'' with the unknown q''[cols] = 0, i.e. R_dep c_dep = gamma - R_cols accels_cols

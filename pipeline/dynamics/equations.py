@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.dynamics.gravity import gravity_force
-from pipeline.dynamics.mass_matrix import all_link_terms, mass_links, mass_matrix
+from pipeline.dynamics.mass_matrix import all_link_terms, mass_matrix
 from pipeline.dynamics.velocity_terms import velocity_terms
 from pipeline.kinematics.poses import TreeState, evaluate_tree
 
@@ -62,14 +62,8 @@ class EquationTerms:
 
 def elastic_forces(system, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(Q_elastic, Q_damping), each (n,): -K eta and -D eta' of every flexible body."""
-    n = system.mechanism.n
-    Qe, Qd = np.zeros(n), np.zeros(n)
-    for _, body, idx in mass_links(system):
-        if idx.size:
-            Qe[idx] -= body.stiffness @ q[idx]
-            if body.damping.size:
-                Qd[idx] -= body.damping @ qd[idx]
-    return Qe, Qd
+    K, D = system.modal_stiffness_damping
+    return -(K @ q), -(D @ qd)
 
 
 def _force_elements(system, tree, q, qd, t):

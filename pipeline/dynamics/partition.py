@@ -38,7 +38,7 @@ try:  # the fused compiled pass (numba); the code below is the reference and the
     from pipeline.dynamics.compiled import closed_state as _closed_state
 except ImportError:  # pragma: no cover - numba is a dependency
     _closed_state = None
-from pipeline.kinematics.partition import Partition, normalised_jacobian, select_partition
+from pipeline.kinematics.partition import Partition, select_partition
 
 __all__ = ["DynamicPartition", "ReducedState", "complete_position", "driver_state",
            "partition_system", "reduced_state", "repartition", "velocity_transform"]
@@ -101,11 +101,14 @@ def partition_system(system, q: np.ndarray) -> DynamicPartition:
 
 
 def _rcond(mech, J: np.ndarray, kin: Partition) -> float:
-    """Smallest / largest singular value of the normalised dependent block."""
+    """Smallest / largest singular value of the normalised dependent block (as
+    :func:`pipeline.kinematics.partition.normalised_jacobian`, on its columns only)."""
     if kin.dependent.size == 0:
         return 1.0
-    s = np.linalg.svd(normalised_jacobian(mech, J)[0][np.ix_(kin.rows, kin.dependent)],
-                      compute_uv=False)
+    Jd = mech.row_weights[:, None] * J[:, kin.dependent]
+    c = np.sqrt(np.einsum("ij,ij->j", Jd, Jd))
+    c[c == 0.0] = 1.0
+    s = np.linalg.svd(Jd[kin.rows] / c, compute_uv=False)
     return float(s[-1] / s[0]) if s[0] > 0 else 0.0
 
 

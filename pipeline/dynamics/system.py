@@ -105,6 +105,21 @@ class System:
         object.__setattr__(self, "forces", tuple(self.forces))
 
     @cached_property
+    def modal_stiffness_damping(self) -> tuple[np.ndarray, np.ndarray]:
+        """(K, D), each (n, n): the flexible bodies' modal stiffness and damping placed on
+        their modal coordinates (zero elsewhere), N m and N m s per modal unit^2."""
+        n = self.mechanism.n
+        K, D = np.zeros((n, n)), np.zeros((n, n))
+        for _, body, idx in self.mass_links:
+            if idx.size:
+                K[np.ix_(idx, idx)] = body.stiffness
+                if body.damping.size:
+                    D[np.ix_(idx, idx)] = body.damping
+        for a in (K, D):
+            a.setflags(write=False)
+        return K, D
+
+    @cached_property
     def gravity4(self) -> np.ndarray:
         """(4,) gravity as a homogeneous direction [g, 0], m/s^2."""
         return np.append(self.gravity, 0.0)

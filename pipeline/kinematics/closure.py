@@ -47,9 +47,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.kinematics.mechanism import Mechanism
-from pipeline.kinematics.poses import (Locals, TreeState, _compiled_evaluate, evaluate_tree,
-                                       local_matrices, local_rates, place_d, place_rates,
-                                       tree_with_rates)
+from pipeline.kinematics.poses import (
+    Locals,
+    TreeState,
+    _compiled_evaluate,
+    evaluate_tree,
+    local_matrices,
+    local_rates,
+    place_d,
+    place_rates,
+    tree_with_rates,
+)
 
 _I = ([2, 0, 1], [1, 2, 0])  # vee(E) = (E[I] - E[I^T]) / 2
 _IT = ([1, 2, 0], [2, 0, 1])

@@ -97,8 +97,8 @@ class GeneralizedAlpha(OdeSolver):
         step: the position and velocity changes it would still cause (bq r, bv r) must be
         below atol + rtol |y| per coordinate, as scipy's solvers judge their error."""
         r = np.abs(r)
-        return bool(np.all(bq * r <= self.atol + self.rtol * np.abs(q))
-                    and np.all(bv * r <= self.atol + self.rtol * np.abs(v)))
+        return bool((bq * r <= self.atol + self.rtol * np.abs(q)).all()
+                    and (bv * r <= self.atol + self.rtol * np.abs(v)).all())
 
     def _eval(self, t, q, v, extras):
         return np.asarray(self.fun(t, np.concatenate([q, v, extras])), dtype=float)

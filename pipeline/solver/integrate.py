@@ -19,8 +19,7 @@ import numpy as np
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.core.progress import progress_bar
 from pipeline.dynamics.energy import energies
-from pipeline.dynamics.partition import (driver_state, partition_system, reduced_state,
-                                         repartition)
+from pipeline.dynamics.partition import driver_state, partition_system, reduced_state, repartition
 from pipeline.kinematics.failures import ClosureError, SingularConfigurationError
 from pipeline.solver.result import ENERGY_KEYS, SimulationResult
 

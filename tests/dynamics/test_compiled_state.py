@@ -10,8 +10,7 @@ import numpy as np
 import pytest
 from eom_models import flexible_four_bar
 
-import pipeline.dynamics.partition as partition
-from pipeline.dynamics import System
+from pipeline.dynamics import System, partition
 from pipeline.dynamics.partition import partition_system, reduced_state
 from pipeline.kinematics import assemble
 from pipeline.kinematics.drivers import SmoothStep
