@@ -11,7 +11,11 @@ dissipated energy) use the trapezoidal rule.
 
 Each step solves r(a) = a - f(t + h, q(a), v(a)) = 0 for the new acceleration by Newton's
 method with the iteration matrix S = I - beta' df/dq - gamma' df/dv; df/dq and df/dv are
-finite differences, kept across steps and refreshed only when Newton slows down or fails.
+finite differences, kept across steps and refreshed only when Newton slows down or fails;
+between refreshes Broyden's secant update keeps S current at no extra evaluation.
+Convergence is judged by what the residual still does to the step (the q and v changes
+beta' r and gamma' r against atol + rtol |y|), so that the tolerances mean what they mean
+for scipy's solvers.
 A step whose Newton fails after a refresh (or whose trial state the loops cannot reach:
 ``fun`` returns NaN) is retried with half the step, down to 1e-6 of the user's step.
 """
@@ -60,6 +64,10 @@ class GeneralizedAlpha(OdeSolver):
     #: Newton iterations after which a step refreshes df/dq, df/dv (loader, 100 steps of 5 ms:
     #: 2 -> 1360 evaluations, 3 -> 744, 4 -> 562, only on failure (8) -> 615)
     REFRESH_AFTER = 4
+    #: ... and at the start of the step after one whose last Newton iteration contracted the
+    #: residual by less than this factor (loader, 10 s at 10 ms: 3.30 -> 2.94 evaluations per
+    #: step with 0.03; 0.01: 3.05, 0.1: 2.98)
+    THETA_REFRESH = 0.03
     #: the driver passes n_second (the reduced coordinates' count) and the fixed-step options
     SECOND_ORDER = True
 
@@ -78,6 +86,7 @@ class GeneralizedAlpha(OdeSolver):
             raise ConfigError("generalized_alpha: the start state cannot be evaluated")
         self.abar = self.f[self.k:2 * self.k].copy()  # acceleration-like variable
         self.J = None  # (df/dq, df/dv) at some recent state
+        self._stale = False  # refresh J at the next step
         self.S = None  # (h, iteration matrix dr/da for steps of size h)
         self.jac_updates = 0
         self.newton_iterations = 0
@@ -135,13 +144,17 @@ class GeneralizedAlpha(OdeSolver):
                 return False, None, None, None
             r = a - f[k:2 * k]
             if self._converged(r, q, v, bq, bv):
+                if prev is not None and it >= 2:  # slow contraction: refresh at the next step
+                    theta = np.abs(r).max() / max(np.abs(prev[1]).max(), 1e-300)
+                    self._stale = theta > self.THETA_REFRESH
                 extras = extras_old + 0.5 * h * (self.f[2 * k:] + f[2 * k:])
                 f[:k] = v
                 return True, np.concatenate([q, v, extras]), f, abar_new
             # slow convergence means the iteration matrix is stale: refresh it once
-            if self.J is None or (it == self.REFRESH_AFTER and not refreshed):
+            if self.J is None or (it == self.REFRESH_AFTER and not refreshed) \
+                    or (it == 0 and self._stale):
                 self.J = self._jacobian(t1, q, v, extras, f)
-                self.S, refreshed = None, True
+                self.S, refreshed, self._stale = None, True, False
             elif it >= 2 * self.MAX_NEWTON:
                 return False, None, None, None
             if self.S is None or self.S[0] != h:
