@@ -23,7 +23,7 @@ import numpy as np
 
 from pipeline.dynamics.mass_matrix import all_link_terms, stacked
 
-__all__ = ["gravity_force", "gravity_potential"]
+__all__ = ["first_moments", "gravity_force", "gravity_potential"]
 
 
 def gravity_force(system, tree, q: np.ndarray, links=None) -> np.ndarray:
@@ -46,9 +46,23 @@ def gravity_force(system, tree, q: np.ndarray, links=None) -> np.ndarray:
 
 
 def gravity_potential(system, tree, q: np.ndarray) -> float:
-    """Gravity potential V = -sum_g m_g G . R_g (J), zero at the ground origin."""
-    g = np.append(system.gravity, 0.0)
-    V = 0.0
-    for li, _, _, J, _ in all_link_terms(system, q):
-        V -= float(g @ (tree.A[li] @ J[:, 3]))
-    return V
+    """Gravity potential V = -sum_g m_g G . R_g (J), zero at the ground origin.
+
+    Only the first moments J(eta)[:, 3] = sum_g m_g (r_g + eta phi_g) of the links enter,
+    stacked over the links (:func:`first_moments`)."""
+    links, J3 = first_moments(system, q)
+    if not links.size:
+        return 0.0
+    return -float(np.einsum("bij,bj,i->", tree.A[links], J3, system.gravity4))
+
+
+def first_moments(system, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Link indices (B,) of the massive links and their first moments J(eta)[:, 3] (B, 4)
+    (kg m, kg) at q (n,): C[:, 3] + sum_a eta_a (C'_a[:, 3] + C'_a[3, :])
+    + sum_ab eta_a eta_b C''_ab[:, 3], the fourth column of :func:`link_terms`' J."""
+    li, C3, flexible = system.first_moment_data
+    J3 = C3.copy()
+    for b, idx, P1, P2 in flexible:
+        eta = q[idx]
+        J3[b] += eta @ P1 + eta @ (P2 @ eta)
+    return li, J3

@@ -120,6 +120,19 @@ class System:
         return K, D
 
     @cached_property
+    def first_moment_data(self) -> tuple[np.ndarray, np.ndarray, tuple]:
+        """Link indices (B,), C[:, 3] (B, 4) of the massive links, and per flexible one
+        (position b, modal indices, C'_a[:, 3] + C'_a[3, :] (m, 4), C''_ab[:, 3] as (m, 4, m))
+        for :func:`pipeline.dynamics.gravity.first_moments`."""
+        links = self.mass_links
+        li = np.array([item[0] for item in links], dtype=int)
+        C3 = np.array([body.C[:, 3] for _, body, _ in links]).reshape(-1, 4)
+        flexible = tuple((b, idx, body.Cp[:, :, 3] + body.Cp[:, 3, :],
+                          body.Cpp[:, :, :, 3].transpose(0, 2, 1))
+                         for b, (_, body, idx) in enumerate(links) if idx.size)
+        return li, C3, flexible
+
+    @cached_property
     def gravity4(self) -> np.ndarray:
         """(4,) gravity as a homogeneous direction [g, 0], m/s^2."""
         return np.append(self.gravity, 0.0)
