@@ -25,7 +25,7 @@ from numba import njit
 
 from pipeline.kinematics.compiled import _kernel as _kinematics
 
-__all__ = ["CompiledMasses", "compile_masses", "inertia_terms"]
+__all__ = ["CompiledMasses", "closed_state", "compile_masses", "inertia_terms", "reduced_solve"]
 
 
 @dataclass(frozen=True)
@@ -291,3 +291,14 @@ def _closed_state(q, rows, dep, cols, rates_cols, accels_cols, weights, tol, max
         cacc[dep[a]] = cd[a]
     M, h, Qg = _kernel(q, qd, True, A, dA, Ad, Add, g, link, m_modes, idx, C, Cp, Cpp)
     return True, q, r, J, X, qd, cacc, A, dA, Ad, Add, M, h, Qg
+
+
+@njit(cache=True)
+def reduced_solve(B, Bp, M, rhs, c):
+    """(q''_I, q'', driver forces) of (B^T M B) q''_I = B^T (rhs - M c), q'' = B q''_I + c,
+    lambda = B_p^T (M q'' - rhs); B (n, nI), B_p (n, p), M (n, n), rhs, c (n,)."""
+    Bt = np.ascontiguousarray(B.T)
+    qdd_I = np.linalg.solve(Bt @ (M @ B), Bt @ (rhs - M @ c))
+    qdd = B @ qdd_I + c
+    lam = np.ascontiguousarray(Bp.T) @ (M @ qdd - rhs)
+    return qdd_I, qdd, lam

@@ -36,8 +36,9 @@ from pipeline.kinematics.poses import TreeState
 
 try:  # the fused compiled pass (numba); the code below is the reference and the fallback
     from pipeline.dynamics.compiled import closed_state as _closed_state
+    from pipeline.dynamics.compiled import reduced_solve as _reduced_solve
 except ImportError:  # pragma: no cover - numba is a dependency
-    _closed_state = None
+    _closed_state = _reduced_solve = None
 from pipeline.kinematics.partition import Partition, select_partition
 
 __all__ = ["DynamicPartition", "ReducedState", "complete_position", "driver_state",
@@ -228,6 +229,13 @@ def reduced_state(system, part: DynamicPartition, q_I: np.ndarray, qd_I: np.ndar
 def _solve_reduced(q, qd, B, Bp, c, terms, residual, J) -> ReducedState:
     """(B^T M B) q''_I = B^T (rhs - M c), q'' = B q''_I + c and the driver forces."""
     M, rhs = terms.M, terms.rhs
+    if _reduced_solve is not None and B.shape[1]:
+        try:
+            qdd_I, qdd, lam = _reduced_solve(np.ascontiguousarray(B), np.ascontiguousarray(Bp),
+                                             M, rhs, c)
+            return ReducedState(q, qd, qdd, qdd_I, B, terms, lam, residual, Bp, J)
+        except ValueError:  # non-finite terms (numba refuses them): numpy propagates the NaN
+            pass
     qdd_I = np.linalg.solve(B.T @ M @ B, B.T @ (rhs - M @ c))
     qdd = B @ qdd_I + c
     # driver forces: the drivers' generalized reactions, B_p^T (M q'' - rhs)
@@ -251,7 +259,7 @@ def _compiled_state(system, part: DynamicPartition, q_I, qd_I, t, q_guess, value
                             np.concatenate([I, P]), np.concatenate([qd_I, rates]),
                             np.concatenate([np.zeros(nI), accels]), mech.row_weights,
                             1e-12, system.gravity4)
-    except np.linalg.LinAlgError:
+    except (np.linalg.LinAlgError, ValueError):  # singular block, non-finite entries
         return None
     if out is None:
         return None

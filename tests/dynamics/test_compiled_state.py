@@ -1,5 +1,5 @@
-"""The fused compiled reduced state (pipeline.dynamics.compiled.closed_state, used by
-reduced_state for closed loops) against the numpy reference path of reduced_state
+"""The fused compiled reduced state (pipeline.dynamics.compiled.closed_state and
+reduced_solve, used by reduced_state) against the numpy reference path of reduced_state
 (position analysis, velocity transform, closure rates, equation terms), on the flexible
 four-bar free and with a driven crank, including starts far from the closed
 configuration and the fallback to the damped position analysis."""
@@ -33,6 +33,7 @@ def _system(driven: bool):
 def _reference(monkeypatch, *args):
     with monkeypatch.context() as m:
         m.setattr(partition, "_closed_state", None)
+        m.setattr(partition, "_reduced_solve", None)
         return reduced_state(*args)
 
 
