@@ -196,7 +196,7 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp):
 def closed_state(kin, masses: CompiledMasses, q_guess: np.ndarray, rows: np.ndarray,
                  dep: np.ndarray, cols: np.ndarray, rates_cols: np.ndarray,
                  accels_cols: np.ndarray, weights: np.ndarray, tol: float, gravity4: np.ndarray,
-                 max_iter: int = 6):
+                 max_iter: int = 6, max_move: float = 0.2):
     """One machine-code pass for a reduced state of a closed-loop system.
 
     Newton on the dependent coordinates ``dep`` (closure rows ``rows``, weighted max-norm
@@ -206,14 +206,16 @@ def closed_state(kin, masses: CompiledMasses, q_guess: np.ndarray, rows: np.ndar
     ``accels_cols`` where given (the drivers; zero for the unknown ones), and M, h and
     the gravity force (gravity4: (4,) homogeneous, m/s^2) at (q, q').
 
-    Returns None if Newton did not converge in ``max_iter`` plain iterations (the caller
-    falls back to the damped, least-squares-backed position analysis), else
+    Returns None if the plain Newton did not converge fast (``max_iter`` iterations, each
+    halving the residual and moving no dependent coordinate by more than ``max_move`` rad
+    or m): the caller falls back to the damped, least-squares-backed position analysis;
+    else
     (q, r, J, X, qd, c, A, dA, Ad, Add, M, h, Qg).
     """
     out = _closed_state(np.array(q_guess, dtype=float), rows, dep, cols,
                         np.ascontiguousarray(rates_cols, dtype=float),
                         np.ascontiguousarray(accels_cols, dtype=float), weights, tol, max_iter,
-                        gravity4, kin.n_links,
+                        max_move, gravity4, kin.n_links,
                         kin.root, kin.frm, kin.n_modes, kin.eta, kin.pose, kin.dS,
                         kin.n_motions, kin.kind, kin.gen, kin.gen2, kin.qi, kin.tail, kin.order,
                         kin.slot, kin.loops, kin.depends, kin.loop_depends, masses.link,
@@ -222,14 +224,15 @@ def closed_state(kin, masses: CompiledMasses, q_guess: np.ndarray, rows: np.ndar
 
 
 @njit(cache=True)
-def _closed_state(q, rows, dep, cols, rates_cols, accels_cols, weights, tol, max_iter, g, L,
-                  root, frm,
+def _closed_state(q, rows, dep, cols, rates_cols, accels_cols, weights, tol, max_iter,
+                  max_move, g, L, root, frm,
                   n_modes, eta, pose, dS, n_motions, kind, gen, gen2, qi, tail, order, slot,
                   loops, depends, loop_depends, link, m_modes, idx, C, Cp, Cpp):
     n = q.shape[0]
     nd, nc = dep.shape[0], cols.shape[0]
     qd = np.zeros(n)
     ok = False
+    prev = np.inf
     for it in range(max_iter + 1):
         A, dA, Ad, Add, r, J, gam = _kinematics(q, qd, False, L, root, frm, n_modes, eta, pose,
                                                 dS, n_motions, kind, gen, gen2, qi, tail, order,
@@ -240,8 +243,11 @@ def _closed_state(q, rows, dep, cols, rates_cols, accels_cols, weights, tol, max
         if err <= tol:
             ok = True
             break
-        if it == max_iter:
+        # plain Newton only where it converges fast (near the guess): anything else goes to
+        # the damped position analysis, so that no far assembly branch is ever jumped to
+        if it == max_iter or err > 0.5 * prev:
             break
+        prev = err
         R = np.empty((nd, nd))
         b = np.empty(nd)
         for a in range(nd):
@@ -249,6 +255,11 @@ def _closed_state(q, rows, dep, cols, rates_cols, accels_cols, weights, tol, max
             for c in range(nd):
                 R[a, c] = J[rows[a], dep[c]]
         dx = np.linalg.solve(R, b)
+        big = 0.0
+        for c in range(nd):
+            big = max(big, abs(dx[c]))
+        if big > max_move:
+            break
         for c in range(nd):
             q[dep[c]] += dx[c]
     X = np.zeros((n, nc))

@@ -32,6 +32,9 @@ class _Rhs:
     """Right-hand side with the position Newton started from a prediction of the last
     closed state (so that it usually converges without an iteration)."""
 
+    MAX_PREDICTED_MOVE = 0.1  # rad, m, modal units: larger predicted moves are not trusted
+    MAX_BRANCH_JUMP = 0.25  # rad, m: a closed configuration this far from the guess is rejected
+
     def __init__(self, system, part, q_guess):
         self.system, self.part, self.guess, self.count = system, part, q_guess, 0
         self.t_last, self.steps, self.reselections = float("nan"), 0, []
@@ -48,15 +51,27 @@ class _Rhs:
         t0, _, st = self.last
         dt = t - t0
         q = st.q + dt * st.qd + (0.5 * dt * dt) * st.qdd
-        return q + st.B @ (q_I - q[self.part.independent])
+        q += st.B @ (q_I - q[self.part.independent])
+        # a trial stage far from the last state (a long explicit step, a diverging one):
+        # the last closed configuration is the safer start
+        return q if np.abs(q - st.q).max(initial=0.0) <= self.MAX_PREDICTED_MOVE else st.q
 
     def state(self, t, y):
         nI = self.nI
         q_I = y[:nI]
         if self._drive is None or self._drive[0] != t:  # Newton iterations share a time
             self._drive = (t, driver_state(self.part, t))
-        st = reduced_state(self.system, self.part, q_I, y[nI:2 * nI], t, self.predict(t, q_I),
-                           self._drive[1])
+        guess = self.predict(t, q_I)
+        st = reduced_state(self.system, self.part, q_I, y[nI:2 * nI], t, guess, self._drive[1])
+        dep = self.part.kin.dependent
+        if dep.size:
+            jump = np.abs(st.q[dep] - guess[dep]).max()
+            if jump > self.MAX_BRANCH_JUMP:
+                # the loops closed far from where the motion was heading: another assembly
+                # branch (a trial stage far off, e.g. a long first explicit step)
+                raise ClosureError(f"the loops closed {jump:.3g} (rad or m) away from the "
+                                   f"predicted configuration at t = {t:.6g} s: another "
+                                   "assembly branch", "-", "-", st.residual, st.q)
         self.guess, self.last = st.q, (t, y[:2 * nI].copy(), st)
         return st
 

@@ -111,57 +111,106 @@ def test_bench_loader_two_flexible_links(tmp_path):
 
 
 OUT_GA = OUT.with_name("loader_dynamics_generalized_alpha.json")
-GA_STEP, GA_RHO = 0.005, 0.8
+GA_RHO, GA_RTOL, GA_ATOL = 0.8, 1e-6, 1e-8
+#: (step s, output spacing s): outputs on step ends (an output between steps costs an
+#: extra evaluation); 10 ms resolves the lowest closed-loop mode (16 Hz) with 6 steps
+GA_STEPS = ((0.005, 0.01), (0.01, 0.01), (0.02, 0.02))
+HEADLINE_STEP = 0.01
+REPEATS = 3  # wall time: best of REPEATS (the machine's speed varies by up to ~40 %)
+REF_END = 2.0  # s of the reference run
+GA_FUNCS = ("closed_state", "_closed_state", "_compiled_state", "equation_terms",
+            "_force_elements", "_solve_reduced", "predict", "_try", "_jacobian", "_record",
+            "_reselect", "energies")
+
+
+def _ga_profile(system, q0, step, t1=2.0):
+    """Share of the wall time of a generalised-alpha run per function (cumulative)."""
+    pr = cProfile.Profile()
+    t = np.linspace(0.0, t1, round(t1 / step) + 1)
+    pr.enable()
+    simulate(system, q0, np.zeros_like(q0), (0.0, t1), t, method="generalized_alpha",
+             step=step, rho_inf=GA_RHO, rtol=GA_RTOL, atol=GA_ATOL, progress=False)
+    pr.disable()
+    st = pstats.Stats(pr)
+    total = max(v[3] for v in st.stats.values())
+    shares = {}
+    for (file, _, func), v in st.stats.items():
+        if func in GA_FUNCS:
+            key = f"{Path(file).stem}.{func}"
+            shares[key] = round(shares.get(key, 0.0) + v[3] / total, 3)
+    return dict(sorted(shares.items(), key=lambda kv: -kv[1]))
 
 
 @pytest.mark.bench
 @pytest.mark.gmsh
 def test_bench_loader_generalized_alpha_full_lift(tmp_path):
-    """The full 10 s lift with the implicit generalised-alpha (5 ms, rho_inf 0.8), and its
-    accuracy over the first second against DOP853 at rtol 1e-8 (the reference)."""
+    """The full 10 s lift with the implicit generalised-alpha at 5, 10 and 20 ms (rho_inf
+    0.8, Newton rtol 1e-6), each against DOP853 at rtol 1e-9 over the first 2 s."""
     reduced = reduce_links(tmp_path, arm_size=0.02, link_size=0.015, arm_modes=2, link_modes=1)
     system, q_ref = build_flexible_loader(reduced, t_lift=T_LIFT)
     # from the static equilibrium (as the workflow's transient starts): released undeformed,
-    # the links ring at up to ~1 kHz, which a 5 ms step filters out by design
+    # the links ring at up to ~1 kHz, which these steps filter out by design
     st = static_equilibrium(system, q_ref)
     assert st.success, st.message
     q0 = st.q
-    t = np.linspace(0.0, T_LIFT, round(T_LIFT * 100) + 1)
-    r = simulate(system, q0, np.zeros_like(q0), (0.0, T_LIFT), t, method="generalized_alpha",
-                 step=GA_STEP, rho_inf=GA_RHO, progress=False)
-    assert r.success, r.message
-    t1 = t[t <= SIM_END + 1e-12]
-    ref = simulate(system, q0, np.zeros_like(q0), (0.0, SIM_END), t1, method="DOP853",
-                   rtol=1e-8, atol=1e-10, progress=False)
-    k = t1.size
+    # warm the compiled kernels (numba compiles on first use, then loads from its cache)
+    simulate(system, q0, np.zeros_like(q0), (0.0, 0.02), [0.0, 0.02],
+             method="generalized_alpha", step=0.01, progress=False)
+    t_ref = np.linspace(0.0, REF_END, round(REF_END * 100) + 1)
+    ref = simulate(system, q0, np.zeros_like(q0), (0.0, REF_END), t_ref, method="DOP853",
+                   rtol=1e-9, atol=1e-11, progress=False)
+    assert ref.success, ref.message
     modal = list(system.mechanism.modal_coordinates)
-    err_modal = float(np.abs(r.q[:k, modal] - ref.q[:, modal]).max())
     peak_modal = float(np.abs(ref.q[:, modal]).max())
-    err_force = float(np.abs(r.driver_forces[:k] - ref.driver_forces).max())
     peak_force = float(np.abs(ref.driver_forces).max())
-    wall = r.timings["total"]
-    e = r.energies
+    runs = []
+    for step, spacing in GA_STEPS:
+        t = np.linspace(0.0, T_LIFT, round(T_LIFT / spacing) + 1)
+        walls, r = [], None
+        for _ in range(REPEATS):
+            r = simulate(system, q0, np.zeros_like(q0), (0.0, T_LIFT), t,
+                         method="generalized_alpha", step=step, rho_inf=GA_RHO, rtol=GA_RTOL,
+                         atol=GA_ATOL, progress=False)
+            assert r.success, r.message
+            walls.append(r.timings["total"])
+        k = np.flatnonzero(t <= REF_END + 1e-12)
+        kr = np.searchsorted(t_ref, t[k] - 1e-9)  # the reference at the same instants
+        assert np.allclose(t_ref[kr], t[k])
+        e = r.energies
+        wall = min(walls)
+        runs.append({
+            "step_s": step, "output_spacing_s": spacing, "outputs": int(t.size),
+            "wall_s_best": wall, "wall_s_all": walls, "steps": r.n_steps,
+            "rhs_evaluations": r.n_rhs, "rhs_per_step": r.n_rhs / r.n_steps,
+            "ms_per_rhs_incl_step_overhead": 1e3 * (wall - r.timings["output"]) / r.n_rhs,
+            "output_s": r.timings["output"],
+            "real_time_factor": T_LIFT / wall, "goal_10x_real_time_met": T_LIFT / wall >= 10.0,
+            "modal_coordinate_error_rel": float(np.abs(r.q[k][:, modal]
+                                                       - ref.q[kr][:, modal]).max()
+                                                / peak_modal),
+            "driver_force_error_rel": float(np.abs(r.driver_forces[k] - ref.driver_forces[kr])
+                                            .max() / peak_force),
+            "closure_residual_max": float(r.closure_residual.max()),
+            "energy_balance_residual_J": float(np.abs(e["total"] - e["total"][0]).max()),
+        })
+        print(json.dumps(runs[-1], indent=1))
+    head = next(x for x in runs if x["step_s"] == HEADLINE_STEP)
     report = {
         "case": "as loader_dynamics.json, the full 10 s lift, from the static equilibrium",
-        "method": "generalized_alpha", "step_s": GA_STEP, "rho_inf": GA_RHO,
-        "simulated_s": T_LIFT, "wall_s": wall, "steps": r.n_steps, "rhs_evaluations": r.n_rhs,
-        "rhs_per_step": r.n_rhs / r.n_steps,
-        "ms_per_rhs": 1e3 * r.timings["integrate"] / r.n_rhs,
-        "real_time_factor": T_LIFT / wall,
-        "goal_10x_real_time_met": T_LIFT / wall >= 10.0,
-        "reference": "DOP853 rtol 1e-8 over the first 1 s",
-        "reference_wall_s_for_1s": ref.timings["total"],
-        "speedup_vs_reference_per_simulated_s": (ref.timings["total"] / SIM_END)
-        / (wall / T_LIFT),
-        "modal_coordinate_error_rel": err_modal / peak_modal,
-        "driver_force_error_rel": err_force / peak_force,
-        "closure_residual_max": float(r.closure_residual.max()),
-        "energy_balance_residual_J": float(np.abs(e["total"] - e["total"][0]).max()),
-        "energy_scale_J": float(sum(np.ptp(e[k]) for k in ("kinetic", "gravity", "elastic",
-                                                              "forces", "driver_work"))),
+        "method": "generalized_alpha", "rho_inf": GA_RHO, "rtol": GA_RTOL, "atol": GA_ATOL,
+        "n_coordinates": system.mechanism.n, "simulated_s": T_LIFT,
+        "closed_loop_frequencies_hz": vibration_modes(system, q0).frequencies_hz.tolist(),
+        "reference": f"DOP853 rtol 1e-9 over the first {REF_END} s "
+                     f"({ref.timings['total']:.1f} s wall, {ref.n_rhs} evaluations)",
+        "headline_step_s": HEADLINE_STEP,
+        "real_time_factor": head["real_time_factor"],
+        "goal_10x_real_time_met": head["goal_10x_real_time_met"],
+        "runs": runs,
+        "profile_share_of_wall_10ms": _ga_profile(system, q0, HEADLINE_STEP),
     }
-    print(json.dumps(report, indent=1))
+    print(json.dumps({k: v for k, v in report.items() if k != "runs"}, indent=1))
     OUT_GA.parent.mkdir(parents=True, exist_ok=True)
     with atomic_open(OUT_GA) as fh:
         json.dump(report, fh, indent=2)
-    assert r.closure_residual.max() < 1e-9
+    for x in runs:
+        assert x["closure_residual_max"] < 1e-9
