@@ -33,7 +33,6 @@ class _Rhs:
     closed state (so that it usually converges without an iteration)."""
 
     MAX_PREDICTED_MOVE = 0.1  # rad, m, modal units: larger predicted moves are not trusted
-    MAX_BRANCH_JUMP = 0.25  # rad, m: a closed configuration this far from the guess is rejected
 
     def __init__(self, system, part, q_guess):
         self.system, self.part, self.guess, self.count = system, part, q_guess, 0
@@ -61,17 +60,8 @@ class _Rhs:
         q_I = y[:nI]
         if self._drive is None or self._drive[0] != t:  # Newton iterations share a time
             self._drive = (t, driver_state(self.part, t))
-        guess = self.predict(t, q_I)
-        st = reduced_state(self.system, self.part, q_I, y[nI:2 * nI], t, guess, self._drive[1])
-        dep = self.part.kin.dependent
-        if dep.size:
-            jump = np.abs(st.q[dep] - guess[dep]).max()
-            if jump > self.MAX_BRANCH_JUMP:
-                # the loops closed far from where the motion was heading: another assembly
-                # branch (a trial stage far off, e.g. a long first explicit step)
-                raise ClosureError(f"the loops closed {jump:.3g} (rad or m) away from the "
-                                   f"predicted configuration at t = {t:.6g} s: another "
-                                   "assembly branch", "-", "-", st.residual, st.q)
+        st = reduced_state(self.system, self.part, q_I, y[nI:2 * nI], t, self.predict(t, q_I),
+                           self._drive[1])
         self.guess, self.last = st.q, (t, y[:2 * nI].copy(), st)
         return st
 
@@ -149,6 +139,7 @@ def _reselect(solver, rhs, make):
         return solver
     st = rhs.state(solver.t, solver.y)
     rhs.part, rhs.nI = new, new.independent.size
+    rhs.last = None  # its velocity map is in the old coordinates
     I = new.independent
     y = np.concatenate([st.q[I], st.qd[I], solver.y[-2:]])
     rhs.reselections.append(float(solver.t))
