@@ -196,7 +196,9 @@ def run(system, q0, qd0, t_span, t_eval, solver_cls, name, rtol, atol, progress,
             return solver_cls(rhs, t, y, t1, rtol=rtol, atol=atol, max_step=max_step, **extra)
 
         msg, t_out = _march(make(t0, y0), rhs, te, y0, progress, out, make)
-    except (PipelineError, np.linalg.LinAlgError, FloatingPointError) as exc:
+    # ValueError: scipy's implicit methods refuse a non-finite Jacobian (a diverging trial
+    # state); the run ends there with its history, like any other integrator failure
+    except (PipelineError, np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
         msg = (f"integration failed at t = {rhs.t_last:.6g} s (last output t = "
                f"{out[-1][0] if out else t0:.6g} s): {exc}")
     total = time.perf_counter() - tic

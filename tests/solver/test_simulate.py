@@ -58,7 +58,7 @@ class _Breaks:
 
 
 @pytest.mark.parametrize("nan", [False, True])
-@pytest.mark.parametrize("method", ["DOP853", "Radau"])
+@pytest.mark.parametrize("method", ["DOP853", "Radau", "BDF"])
 def test_failure_returns_partial_history(nan, method):
     base = flexible_double_pendulum(n_modes=1).system
     s = System(base.mechanism, base.bodies, base.gravity, forces=(_Breaks(0.3, nan),))
