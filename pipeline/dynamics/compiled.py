@@ -24,6 +24,7 @@ import numpy as np
 from numba import njit
 
 from pipeline.kinematics.compiled import _kernel as _kinematics
+from pipeline.kinematics.compiled import _mm
 
 __all__ = ["CompiledMasses", "closed_state", "compile_masses", "inertia_terms", "reduced_solve"]
 
@@ -89,14 +90,6 @@ def _frob(X, Y):
         for l in range(4):
             s += X[k, l] * Y[k, l]
     return s
-
-
-@njit(cache=True)
-def _mm(X, Y, out):
-    for i in range(4):
-        for j in range(4):
-            out[i, j] = X[i, 0] * Y[0, j] + X[i, 1] * Y[1, j] + X[i, 2] * Y[2, j] \
-                + X[i, 3] * Y[3, j]
 
 
 @njit(cache=True)
