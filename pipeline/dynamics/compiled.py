@@ -64,10 +64,11 @@ def compile_masses(system) -> CompiledMasses:
 
 
 def inertia_terms(cm: CompiledMasses, tree, q: np.ndarray, qd: np.ndarray | None,
-                  gravity: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+                  gravity4: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
     """M (n, n), h (n,) (None without rates) and the gravity force (n,) at (q, qd).
 
-    ``tree``: TreeState with A, dA (and Ad, Add when qd is given); gravity (3,) m/s^2.
+    ``tree``: TreeState with A, dA (and Ad, Add when qd is given); gravity4 (4,) the
+    homogeneous gravity [g, 0], m/s^2 (``System.gravity4``).
     """
     rates = qd is not None
     n = q.shape[0]
@@ -77,7 +78,7 @@ def inertia_terms(cm: CompiledMasses, tree, q: np.ndarray, qd: np.ndarray | None
                        np.ascontiguousarray(qd if rates else np.zeros(n), dtype=float), rates,
                        np.ascontiguousarray(tree.A), np.ascontiguousarray(tree.dA),
                        np.ascontiguousarray(Ad), np.ascontiguousarray(Add),
-                       np.append(np.asarray(gravity, dtype=float), 0.0), cm.link, cm.n_modes,
+                       gravity4, cm.link, cm.n_modes,
                        cm.idx, cm.C, cm.Cp, cm.Cpp)
     return M, (h if rates else None), Qg
 

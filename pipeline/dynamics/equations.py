@@ -102,7 +102,7 @@ def equation_terms(system, q: np.ndarray, qd: np.ndarray, t: float,
     if inertia is not None:
         M, h, Qg = inertia
     elif compiled and _inertia_terms is not None:
-        M, h, Qg = _inertia_terms(system.compiled_masses, tree, q, qd, system.gravity)
+        M, h, Qg = _inertia_terms(system.compiled_masses, tree, q, qd, system.gravity4)
     else:
         links = all_link_terms(system, q)  # J(eta), N(eta) once for M, h and gravity
         M = mass_matrix(system, tree, q, links)

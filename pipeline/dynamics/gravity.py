@@ -31,7 +31,7 @@ def gravity_force(system, tree, q: np.ndarray, links=None) -> np.ndarray:
 
     ``links``: ``all_link_terms(system, q)`` (computed if None).
     """
-    g = np.append(system.gravity, 0.0)
+    g = system.gravity4
     n = system.mechanism.n
     links = all_link_terms(system, q) if links is None else links
     if not links:

@@ -32,6 +32,7 @@ import numpy as np
 from pipeline.dynamics.equations import EquationTerms, equation_terms
 from pipeline.kinematics.analysis import solve_position, velocity_map
 from pipeline.kinematics.closure import closure, closure_rates
+from pipeline.kinematics.partition import Partition, normalised_jacobian, select_partition
 from pipeline.kinematics.poses import TreeState
 
 try:  # the fused compiled pass (numba); the code below is the reference and the fallback
@@ -39,7 +40,6 @@ try:  # the fused compiled pass (numba); the code below is the reference and the
     from pipeline.dynamics.compiled import reduced_solve as _reduced_solve
 except ImportError:  # pragma: no cover - numba is a dependency
     _closed_state = _reduced_solve = None
-from pipeline.kinematics.partition import Partition, select_partition
 
 __all__ = ["DynamicPartition", "ReducedState", "complete_position", "driver_state",
            "partition_system", "reduced_state", "repartition", "velocity_transform"]
@@ -102,14 +102,12 @@ def partition_system(system, q: np.ndarray) -> DynamicPartition:
 
 
 def _rcond(mech, J: np.ndarray, kin: Partition) -> float:
-    """Smallest / largest singular value of the normalised dependent block (as
-    :func:`pipeline.kinematics.partition.normalised_jacobian`, on its columns only)."""
+    """Smallest / largest singular value of the normalised dependent block."""
     if kin.dependent.size == 0:
         return 1.0
-    Jd = mech.row_weights[:, None] * J[:, kin.dependent]
-    c = np.sqrt(np.einsum("ij,ij->j", Jd, Jd))
-    c[c == 0.0] = 1.0
-    s = np.linalg.svd(Jd[kin.rows] / c, compute_uv=False)
+    # column normalisation is per column: normalising only the dependent ones is the same
+    s = np.linalg.svd(normalised_jacobian(mech, J[:, kin.dependent])[0][kin.rows],
+                      compute_uv=False)
     return float(s[-1] / s[0]) if s[0] > 0 else 0.0
 
 

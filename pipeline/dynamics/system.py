@@ -147,5 +147,6 @@ class System:
     def mass_links(self) -> tuple[tuple[int, BodyMass, np.ndarray], ...]:
         """(link index, BodyMass, modal indices in q) of every link that has mass."""
         mech = self.mechanism
-        return tuple((mech.link_index(name), body, mech.modal_index[mech.link_index(name)])
+        index = {name: mech.link_index(name) for name in self.bodies}
+        return tuple((index[name], body, mech.modal_index[index[name]])
                      for name, body in self.bodies.items())

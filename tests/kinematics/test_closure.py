@@ -16,6 +16,7 @@ from pipeline.kinematics import (
     flexible_link,
     rigid_link,
 )
+from pipeline.kinematics.closure import closure_rates
 from pipeline.kinematics.poses import step_value
 from pipeline.kinematics.rotations import exp_so3, homogeneous
 
@@ -140,3 +141,10 @@ def test_compiled_pass_equals_the_numpy_reference(mech, seed):
     assert _rel(st.A, evaluate_tree(mech, q, compiled=False).A) < 1e-14
     # the positions-only pass agrees with the full one
     assert _rel(closure(mech, q).J, ref.J) < 1e-13
+    # rates added to a positions-only evaluation (numpy: from its local matrices) equal
+    # the full evaluation with rates
+    for c0 in (closure(mech, q, compiled=False), closure(mech, q)):
+        added = closure_rates(mech, c0, q, qd)
+        for a, b in ((added.gamma, ref.gamma), (added.tree.Ad, ref.tree.Ad),
+                     (added.tree.Add, ref.tree.Add), (added.J, ref.J)):
+            assert _rel(a, b) < 1e-13
