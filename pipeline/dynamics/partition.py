@@ -106,7 +106,7 @@ def _rcond(mech, J: np.ndarray, kin: Partition) -> float:
     if kin.dependent.size == 0:
         return 1.0
     # column normalisation is per column: normalising only the dependent ones is the same
-    s = np.linalg.svd(normalised_jacobian(mech, J[:, kin.dependent])[0][kin.rows],
+    s = np.linalg.svd(normalised_jacobian(mech, J[:, kin.dependent], kin.dependent)[0][kin.rows],
                       compute_uv=False)
     return float(s[-1] / s[0]) if s[0] > 0 else 0.0
 

@@ -104,9 +104,10 @@ def _newton(mech, q, part, w, tol, max_iter):
     return q, c, max_iter, _err(w, c.r) <= tol
 
 
-def _closest(mech, q, part, w, max_nfev):
-    """Least-squares minimum of |W r| over the non-prescribed coordinates."""
-    cand = np.setdiff1d(np.arange(mech.n), part.prescribed)
+def _closest(mech, q, part, w, max_nfev, movable=None):
+    """Least-squares minimum of |W r| over ``movable`` (default: the non-prescribed
+    coordinates)."""
+    cand = np.setdiff1d(np.arange(mech.n), part.prescribed) if movable is None else movable
     if not np.all(np.isfinite(q)):
         raise ClosureError(f"closure: the start has non-finite coordinates "
                            f"{[mech.coordinates[i] for i in np.flatnonzero(~np.isfinite(q))]}",
@@ -142,13 +143,18 @@ def _closure_error(mech: Mechanism, q: np.ndarray, r: np.ndarray) -> ClosureErro
 
 
 def solve_position(mech: Mechanism, q_guess: np.ndarray, part: Partition, *, tol: float = 1e-12,
-                   max_iter: int = 30, max_nfev: int = 400) -> tuple[np.ndarray, ClosureValue, int]:
+                   max_iter: int = 30, max_nfev: int = 400,
+                   keep_free: bool = True) -> tuple[np.ndarray, ClosureValue, int]:
     """Close the loops for the dependent coordinates of ``part``.
 
     Parameters
     ----------
-    q_guess : (n,) start; prescribed and free entries are kept.
+    q_guess : (n,) start; prescribed and free entries are kept (every one of them: a
+        configuration the dependent coordinates cannot close is a ClosureError, never a
+        silently moved independent coordinate).
     tol : closure tolerance on max |position| / length_scale and max |rotation|.
+    keep_free : False lets the least-squares fallback move the free coordinates too (an
+        approximate assembly, where only the prescribed ones are the user's).
 
     Returns
     -------
@@ -167,7 +173,7 @@ def solve_position(mech: Mechanism, q_guess: np.ndarray, part: Partition, *, tol
     q, c, it, ok = _newton(mech, q, part, w, tol, max_iter)
     if ok:
         return q, c, it
-    q, nfev = _closest(mech, q, part, w, max_nfev)
+    q, nfev = _closest(mech, q, part, w, max_nfev, part.dependent if keep_free else None)
     q2, c, it2, ok = _newton(mech, q, part, w, tol, max_iter)
     if ok:
         return q2, c, it + nfev + it2
@@ -257,6 +263,6 @@ def assemble(mech: Mechanism, q_guess: np.ndarray | None = None, driven=(), *,
                          np.zeros(0, int), 0.0)
         q, _ = _closest(mech, q, part, row_weights(mech), 400)
         part = select_partition(mech, closure(mech, q).J, prescribed, q=q)
-    q, c, it = solve_position(mech, q, part, tol=tol)
+    q, c, it = solve_position(mech, q, part, tol=tol, keep_free=False)
     part = select_partition(mech, c.J, prescribed, q=q)
     return Assembly(q, c, part, it)

@@ -196,6 +196,28 @@ class Mechanism:
         return w
 
     @cached_property
+    def coordinate_units(self) -> np.ndarray:
+        """(n,) natural scale of each coordinate (read-only): 1 for an angle, the length
+        scale for a length, and for a modal coordinate the amplitude that moves some frame
+        of its link by the length scale. Tolerances and rank decisions in these units treat
+        radians, metres and modal amplitudes alike."""
+        L = float(self.length_scale)
+        unit = np.ones(self.n)
+        for j, idx in zip(self.joints, self.joint_index):
+            m = j.kind.motion
+            for kind, v in zip(m.kinds, m.var):
+                unit[idx[v]] = L if kind == "T" else 1.0
+        for link, idx in zip(self.links, self.modal_index):
+            if idx.size:
+                amp = np.zeros(idx.size)
+                for f in link.frames:
+                    amp = np.maximum(amp, np.linalg.norm(f.phi, axis=1)
+                                     + L * np.linalg.norm(f.psi, axis=1))
+                unit[idx] = L / np.where(amp > 0.0, amp, 1.0)
+        unit.setflags(write=False)
+        return unit
+
+    @cached_property
     def compiled(self):
         """The flat arrays of :mod:`pipeline.kinematics.compiled` (built on first use)."""
         from pipeline.kinematics.compiled import compile_mechanism  # numba loads only if used

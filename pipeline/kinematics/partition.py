@@ -35,7 +35,7 @@ from pipeline.kinematics.closure import closure, row_weights
 from pipeline.kinematics.failures import SingularConfigurationError
 from pipeline.kinematics.mechanism import Mechanism
 
-__all__ = ["RANK_RTOL", "DofReport", "Partition", "PassiveMotion", "dof_report",
+__all__ = ["RANK_RTOL", "ZERO_COLUMN", "DofReport", "Partition", "PassiveMotion", "dof_report",
            "normalised_jacobian", "numerical_rank", "select_partition"]
 
 #: Relative singular-value threshold of the rank decisions.
@@ -113,11 +113,26 @@ class DofReport:
         return "\n".join(lines)
 
 
-def normalised_jacobian(mech: Mechanism, J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Row-weighted, column-normalised J and the column norms c (J_n = W J / c)."""
+#: A weighted Jacobian column smaller than this in its coordinate's natural units
+#: (:attr:`Mechanism.coordinate_units`) is round-off: the coordinate does not move the loops.
+ZERO_COLUMN = 1e-10
+
+
+def normalised_jacobian(mech: Mechanism, J: np.ndarray,
+                        columns: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Row-weighted, column-normalised J and the column scales c (J_n = W J / c).
+
+    Columns whose weighted norm is below ZERO_COLUMN in their coordinate's natural units are
+    not normalised (c = 1 / unit): a rotation about an axis that moves the loops rigidly
+    (a slewing base under a planar loop) has an analytically zero column, and scaling its
+    1e-17 round-off up to a unit column would invent a constraint direction. ``columns``:
+    the coordinates of J's columns when J holds only some of them.
+    """
     Jw = row_weights(mech)[:, None] * J
+    unit = mech.coordinate_units if columns is None else mech.coordinate_units[columns]
     c = np.linalg.norm(Jw, axis=0)
-    c[c == 0.0] = 1.0
+    tiny = c * unit <= ZERO_COLUMN
+    c[tiny] = 1.0 / unit[tiny]
     return Jw / c, c
 
 
