@@ -60,6 +60,20 @@ def progress_bar(iterable: Iterable, total: int | None = None, description: str 
     yield from track(iterable, total=total, description=description, transient=True)
 
 
+@contextlib.contextmanager
+def progress_counter(total: int, description: str = "", enabled: bool = True):
+    """Context giving ``advance(k)``: the bar shows k of ``total`` done (a rich progress
+    bar on an interactive stderr; nothing otherwise)."""
+    if not (enabled and sys.stderr.isatty()):
+        yield lambda k: None
+        return
+    from rich.progress import Progress
+
+    with Progress(transient=True) as bar:
+        task = bar.add_task(description, total=total)
+        yield lambda k: bar.update(task, completed=k)
+
+
 def _spinner(name: str):
     if not sys.stderr.isatty():
         return contextlib.nullcontext()

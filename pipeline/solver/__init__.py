@@ -1,15 +1,29 @@
-"""Transient dynamics: integrators and :func:`simulate` (DESIGN §4).
+"""Transient dynamics: :func:`simulate` (DESIGN §4).
 
-``INTEGRATORS`` maps a name to a scipy ``OdeSolver`` class:
+Two formulations of closed loops (``formulation``):
 
-* ``"DOP853"`` (default): explicit 8th-order Runge-Kutta, the accurate choice
-  for smooth runs and tight tolerances (energy-conservation tests).
-* ``"Radau"``: implicit, L-stable 5th order, for stiff runs with
-  high-frequency modes (step size not limited by the highest mode).
-* ``"BDF"``, ``"RK45"``, ``"LSODA"``: also available.
-* ``"generalized_alpha"``: fixed-step, second-order, implicit with numerical damping of
-  the highest modes (``rho_inf``); for closed loops whose stiff closed-loop modes cap an
-  explicit step (:mod:`pipeline.solver.generalized_alpha`). Needs ``step``.
+* ``"dae"`` (default when the mechanism has loops): every coordinate (joint and modal) with
+  Lagrange multipliers for every closure row, M q'' + C^T lambda = rhs, c(q) = 0. Redundant
+  rows and singular positions need no choice of coordinates; the branch comes from
+  continuity of all coordinates. ``generalized_alpha`` integrates it at index 3
+  (:mod:`pipeline.solver.index3`; fixed ``step`` or adaptive); the scipy methods integrate its
+  index-1 form with coordinate projection after every step (:mod:`pipeline.solver.projected`).
+* ``"partitioned"`` (the seed's method; default for open chains): independent coordinates
+  only, the dependent ones closed by position analysis at every evaluation
+  (:mod:`pipeline.solver.integrate`); it needs a regular dependent block, so it stops at a
+  singular position and re-selects coordinates near one.
+
+``INTEGRATORS`` maps a method name to a scipy ``OdeSolver`` class:
+
+* ``"DOP853"`` (default): explicit 8th-order Runge-Kutta, the accurate choice for smooth runs.
+* ``"Radau"``, ``"BDF"``: implicit, for stiff runs with high-frequency modes.
+* ``"RK45"``, ``"LSODA"``: also available.
+* ``"generalized_alpha"``: second order, implicit, damping the highest modes by ``rho_inf``;
+  for flexible closed loops whose ~kHz closed-loop modes nobody needs resolved.
+
+Every result is checked (:mod:`pipeline.solver.monitors`): energy balance, closure,
+deformation range, step size; ``result.verdict`` is "ok", "suspect" (it finished but a check
+tripped: the message says which, when and by how much) or "partial" (it stopped).
 """
 
 from __future__ import annotations
@@ -19,41 +33,54 @@ from scipy.integrate import BDF, DOP853, LSODA, RK45, Radau
 
 from pipeline.core.errors import ConfigError
 from pipeline.solver.generalized_alpha import GeneralizedAlpha, coefficients
-from pipeline.solver.integrate import run
+from pipeline.solver.monitors import Limits, judge
 from pipeline.solver.result import ENERGY_KEYS, SimulationResult
 
-__all__ = ["ENERGY_KEYS", "INTEGRATORS", "SimulationResult", "simulate"]
+__all__ = ["ENERGY_KEYS", "FORMULATIONS", "INTEGRATORS", "Limits", "SimulationResult",
+           "simulate"]
 
 INTEGRATORS = {"DOP853": DOP853, "Radau": Radau, "BDF": BDF, "RK45": RK45, "LSODA": LSODA,
                "generalized_alpha": GeneralizedAlpha}
+FORMULATIONS = ("auto", "dae", "partitioned")
 
 
 def simulate(system, q0, qd0, t_span, t_eval=None, method: str = "DOP853", rtol: float = 1e-8,
              atol: float = 1e-10, progress: bool = True,
              max_step: float = np.inf, step: float | None = None,
-             rho_inf: float = 0.8) -> SimulationResult:
+             rho_inf: float = 0.8, formulation: str = "auto",
+             max_steps: int = 1_000_000, max_wall: float | None = None,
+             limits: Limits | None = None) -> SimulationResult:
     """Transient dynamics of ``system`` from (q0, qd0) over ``t_span``.
 
     Parameters
     ----------
     system : pipeline.dynamics.System.
-    q0 : (n,) assembled initial coordinates (dependent ones are re-closed).
-    qd0 : (n,) initial rates; only the independent entries (modal, free) are
-        used, the dependent ones follow from the loops.
+    q0 : (n,) initial coordinates, assembled (``pipeline.kinematics.initial_positions``);
+        an unclosed q0 is moved onto the loops by the least change (logged).
+    qd0 : (n,) initial rates. Every nonzero entry is a given rate and is honoured (the
+        others follow from the loops, modal rates staying zero where they can); a set that
+        the loops cannot honour is a ConfigError naming the rates (never silently dropped).
     t_span : (t0, t1) s.
     t_eval : (k,) increasing output times in t_span (default 101 points).
-    method : key of ``INTEGRATORS`` or an ``OdeSolver`` subclass.
-    rtol, atol : integrator tolerances.
+    method : key of ``INTEGRATORS``.
+    rtol, atol : tolerances (local error; atol in the coordinates' natural units for the
+        DAE: rad, the length scale, a modal amplitude moving a frame by it).
     progress : show a progress bar on an interactive terminal.
     max_step : largest step, s (adaptive methods).
-    step : fixed step, s (``generalized_alpha``; required there).
+    step : fixed step, s (``generalized_alpha``; required with the partitioned formulation,
+        adaptive in the DAE formulation when None).
     rho_inf : spectral radius at infinite frequency, [0, 1] (``generalized_alpha``).
+    formulation : "auto" (DAE for closed loops, partitioned for open chains), "dae" or
+        "partitioned".
+    max_steps, max_wall : budgets (steps; wall-clock seconds); a run that exhausts one stops
+        with its partial history.
+    limits : thresholds of the trust checks (default :class:`Limits()`).
 
     Returns
     -------
     SimulationResult
-        ``success`` False with the partial history and a message if the
-        integration failed; bad arguments raise ConfigError instead.
+        ``verdict`` "ok", "suspect" or "partial" with a message; bad arguments raise
+        ConfigError instead.
 
     Examples
     --------
@@ -64,9 +91,12 @@ def simulate(system, q0, qd0, t_span, t_eval=None, method: str = "DOP853", rtol:
     >>> s = System(mech, {"arm": BodyMass.rigid(1.0, [1.0, 0, 0], np.zeros((3, 3)))},
     ...            gravity=[0.0, -9.81, 0.0])
     >>> r = simulate(s, np.zeros(1), np.zeros(1), (0.0, 0.5), progress=False)
-    >>> r.success, bool(abs(r.energies["total"]).max() < 1e-6)
-    (True, True)
+    >>> r.verdict, bool(abs(r.energies["total"]).max() < 1e-6)
+    ('ok', True)
     """
+    from pipeline.solver.integrate import check_arguments, run
+    from pipeline.solver.start import consistent_start
+
     if isinstance(method, str):
         if method not in INTEGRATORS:
             raise ConfigError(f"simulate: method: expected one of {sorted(INTEGRATORS)}, "
@@ -74,12 +104,40 @@ def simulate(system, q0, qd0, t_span, t_eval=None, method: str = "DOP853", rtol:
         cls, name = INTEGRATORS[method], method
     else:
         cls, name = method, getattr(method, "__name__", str(method))
-    options = None
-    if getattr(cls, "SECOND_ORDER", False):
-        if step is None or not np.isfinite(step) or step <= 0:
-            raise ConfigError(f"simulate: step: method {name!r} needs a fixed step > 0 s, "
-                              f"got {step!r}")
-        options = {"step": float(step), "rho_inf": float(rho_inf)}
+    if formulation not in FORMULATIONS:
+        raise ConfigError(f"simulate: formulation: expected one of {list(FORMULATIONS)}, "
+                          f"got {formulation!r}")
+    if not (isinstance(max_steps, int | np.integer) and max_steps > 0):
+        raise ConfigError(f"simulate: max_steps: expected a positive integer, got {max_steps!r}")
+    if max_wall is not None and not (np.isfinite(max_wall) and max_wall > 0):
+        raise ConfigError(f"simulate: max_wall: expected seconds > 0, got {max_wall!r}")
+    loops = bool(system.mechanism.topology.loops)
+    if formulation == "auto":
+        formulation = "dae" if loops else "partitioned"
+    second_order = getattr(cls, "SECOND_ORDER", False)
+    if step is not None and not (np.isfinite(step) and step > 0):
+        raise ConfigError(f"simulate: step: expected a fixed step > 0 s, got {step!r}")
+    if second_order:
         coefficients(rho_inf)  # validates rho_inf before any work
-    return run(system, q0, qd0, t_span, t_eval, cls, name, rtol, atol, progress, max_step,
-               options)
+        if formulation == "partitioned" and step is None:
+            raise ConfigError(f"simulate: step: method {name!r} with the partitioned "
+                              "formulation needs a fixed step > 0 s")
+    q0, qd0, t0, t1, te = check_arguments(system, q0, qd0, t_span, t_eval, rtol, atol)
+    q0, qd0 = consistent_start(system, q0, qd0, t0)
+    budget = {"max_steps": int(max_steps), "max_wall": max_wall}
+    if formulation == "dae":
+        if second_order:
+            from pipeline.solver.dae import run_dae
+
+            r = run_dae(system, q0, qd0, t0, t1, te, rtol=rtol, atol=atol, step=step,
+                        rho_inf=rho_inf, max_step=max_step, progress=progress, **budget)
+        else:
+            from pipeline.solver.projected import run_projected
+
+            r = run_projected(system, q0, qd0, t0, t1, te, cls, name, rtol=rtol, atol=atol,
+                              max_step=max_step, progress=progress, **budget)
+    else:
+        options = {"step": float(step), "rho_inf": float(rho_inf)} if second_order else None
+        r = run(system, q0, qd0, t0, t1, te, cls, name, rtol, atol, progress, max_step,
+                options, **budget)
+    return judge(system, r, limits or Limits(), t_span=(t0, t1))

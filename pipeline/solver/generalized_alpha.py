@@ -57,7 +57,8 @@ class GeneralizedAlpha(OdeSolver):
     rho_inf : spectral radius at infinite frequency (1: no numerical damping; 0.8 default).
     rtol, atol : Newton tolerance: the changes of q and v the acceleration residual would still
         cause must be below atol + rtol |q| and atol + rtol |v| (per coordinate).
-    max_step : ignored (the step is fixed); accepted for a common call signature.
+    max_step : caps the step (a run that rejected a step as leaving the loops' branch retries
+        with a shorter one); ``first_step`` and other options are ignored.
     """
 
     MAX_NEWTON = 8
@@ -78,7 +79,7 @@ class GeneralizedAlpha(OdeSolver):
             raise ConfigError(f"generalized_alpha: step: expected a time step > 0 s, got {step}")
         self.k = int(n_second)
         self.t_start = float(t0)
-        self.h = float(step)
+        self.h = float(min(step, max_step))
         self.am, self.af, self.beta, self.gamma = coefficients(rho_inf)
         self.rtol, self.atol = float(rtol), float(atol)
         self.f = np.asarray(self.fun(self.t, self.y), dtype=float)

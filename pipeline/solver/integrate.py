@@ -1,4 +1,4 @@
-"""Time integration of the reduced equations on a fixed output grid.
+"""Time integration of the partitioned equations (the seed's method) on a fixed output grid.
 
 The first-order state is y = [q_I, q'_I, W_d, E_d]: independent coordinates,
 their rates, the work W_d done by the drivers and the energy E_d removed by
@@ -7,6 +7,13 @@ T + V + E_d - W_d = const closes to the integrator's tolerance).
 Any scipy ``OdeSolver`` steps it; dense output fills the output grid. A
 failure (step-size collapse, a loop that cannot close, a singular mass
 matrix) ends the run with the history so far, ``success=False`` and a message.
+
+Branch continuity: every position Newton starts from a prediction of the last *accepted*
+state (never from a rejected trial stage), and an accepted step whose closed configuration
+left the Taylor prediction from the previous accepted state by more than ``jump`` (natural
+coordinate units) is repeated with a quarter of its size: a long explicit step whose stages
+closed the loops on another assembly branch is not kept. If even short steps cannot follow
+the loops the run stops and says so (the DAE formulation passes such places).
 """
 
 from __future__ import annotations
@@ -17,10 +24,11 @@ import time
 import numpy as np
 
 from pipeline.core.errors import ConfigError, PipelineError
-from pipeline.core.progress import progress_bar
+from pipeline.core.progress import progress_counter
 from pipeline.dynamics.energy import energies
 from pipeline.dynamics.partition import driver_state, partition_system, reduced_state, repartition
 from pipeline.kinematics.failures import ClosureError, SingularConfigurationError
+from pipeline.solver.monitors import StallWatch
 from pipeline.solver.result import ENERGY_KEYS, SimulationResult
 
 logger = logging.getLogger(__name__)
@@ -40,14 +48,20 @@ class _Rhs:
         self.rejected, self.last_error = 0, None
         self.nI = part.independent.size
         self.last = None  # (t, y[:2 nI], ReducedState) of the last evaluation
+        self.accepted = None  # the same of the last accepted state: predictions start there
         self._drive = None  # (t, driver_state at t)
+
+    def accept(self, t, y):
+        """Make (t, y) the accepted state the next predictions start from."""
+        self.accepted = (t, y[:2 * self.nI].copy(), self.state_at(t, y))
+        self.guess = self.accepted[2].q
 
     def predict(self, t, q_I):
         """(n,) guess of the closed configuration at (t, q_I): second-order Taylor series
-        of the last state in time, corrected to first order for where q_I actually is."""
-        if self.last is None or self.last[2].B.shape[1] != q_I.size:
+        of the last accepted state in time, corrected to first order for where q_I is."""
+        if self.accepted is None or self.accepted[2].B.shape[1] != q_I.size:
             return self.guess
-        t0, _, st = self.last
+        t0, _, st = self.accepted
         dt = t - t0
         q = st.q + dt * st.qd + (0.5 * dt * dt) * st.qdd
         q += st.B @ (q_I - q[self.part.independent])
@@ -62,7 +76,7 @@ class _Rhs:
             self._drive = (t, driver_state(self.part, t))
         st = reduced_state(self.system, self.part, q_I, y[nI:2 * nI], t, self.predict(t, q_I),
                            self._drive[1])
-        self.guess, self.last = st.q, (t, y[:2 * nI].copy(), st)
+        self.last = (t, y[:2 * nI].copy(), st)
         return st
 
     def state_at(self, t, y):
@@ -95,7 +109,8 @@ class _Rhs:
         return np.concatenate([y[self.nI:2 * self.nI], st.qdd_I, [p_drivers, -power]])
 
 
-def _check(system, q0, qd0, t_span, t_eval, rtol, atol):
+def check_arguments(system, q0, qd0, t_span, t_eval, rtol, atol):
+    """(q0, qd0, t0, t1, t_eval) validated; ConfigError naming the bad argument."""
     n = system.mechanism.n
     q0, qd0 = np.asarray(q0, dtype=float), np.asarray(qd0, dtype=float)
     for name, v in (("q0", q0), ("qd0", qd0)):
@@ -145,57 +160,124 @@ def _reselect(solver, rhs, make):
     rhs.reselections.append(float(solver.t))
     logger.info("re-selected independent coordinates at t = %.6g s: %s", solver.t,
                 [rhs.system.mechanism.coordinates[i] for i in I])
-    return make(solver.t, y)
+    solver = make(solver.t, y)
+    rhs.accept(solver.t, y)
+    return solver
 
 
-def _march(solver, rhs, te, y0, progress, out, make):
-    """Step ``solver`` over the grid ``te``, appending to ``out``; returns
-    (message or None, output seconds). Accepted steps are counted in ``rhs.steps``;
-    before each step the partition is re-selected if it became ill-conditioned
-    (the solver restarts from the current state; the step after a restart
-    provides the dense output, so outputs never straddle a restart)."""
-    t_out = 0.0
-    for k in progress_bar(range(te.size), total=te.size, description="simulating") if progress \
-            else range(te.size):
-        tk = te[k]
-        while solver.t < tk - _same_time(tk) and solver.status == "running":
+def _deviation(st0, st1, h: float, unit: np.ndarray) -> float:
+    """Largest |q1 - (q0 + h q0' + h^2/2 q0'')| in natural coordinate units."""
+    pred = st0.q + h * st0.qd + (0.5 * h * h) * st0.qdd
+    return float(np.abs((st1.q - pred) / unit).max(initial=0.0))
+
+
+class _Stepper:
+    """Accepted steps of ``solver`` with branch-continuity rejection and budgets."""
+
+    #: accepted steps under a reduced step cap before the user's max_step is restored
+    CAPPED_STEPS = 20
+
+    def __init__(self, rhs, make, t0, t1, max_step, max_steps, max_wall, jump, tic):
+        self.rhs, self.make = rhs, make
+        self.span, self.max_step = t1 - t0, max_step
+        self.max_steps, self.max_wall, self.jump, self.tic = max_steps, max_wall, jump, tic
+        self.unit = rhs.system.mechanism.coordinate_units
+        self.rejected, self.capped = 0, 0
+        self.stall = StallWatch(self.span)
+
+    def step(self, solver):
+        """(solver after one accepted step, or None with a message)."""
+        rhs = self.rhs
+        while True:
+            if rhs.steps >= self.max_steps:
+                return solver, (f"step budget of {self.max_steps} steps exhausted at "
+                                f"t = {solver.t:.6g} s")
+            if self.max_wall is not None and time.perf_counter() - self.tic > self.max_wall:
+                return solver, (f"wall-time budget of {self.max_wall:g} s exhausted at "
+                                f"t = {solver.t:.6g} s")
             if rhs.steps:
-                solver = _reselect(solver, rhs, make)
+                solver = _reselect(solver, rhs, self.make)
+            t_prev, y_prev, acc = solver.t, solver.y.copy(), rhs.accepted
             msg = solver.step()
-            rhs.steps += 1
             if solver.status == "failed":
                 why = f" (last position failure: {rhs.last_error})" if rhs.last_error else ""
-                return f"integrator failed at t = {solver.t:.6g} s: {msg}{why}", t_out
-        s0 = time.perf_counter()
-        if solver.t_old is None:
-            y = y0
-        elif abs(solver.t - tk) <= _same_time(tk):  # on a step end: no interpolation
-            y = solver.y
-        else:
-            y = solver.dense_output()(tk)
-        _record(rhs, tk, y, out)
-        t_out += time.perf_counter() - s0
+                return solver, f"integrator failed at t = {solver.t:.6g} s: {msg}{why}"
+            h = solver.t - t_prev
+            st = rhs.state_at(solver.t, solver.y)
+            dev = _deviation(acc[2], st, h, self.unit) if acc is not None and \
+                acc[2].q.shape == st.q.shape else 0.0
+            if dev > self.jump:  # its stages closed the loops elsewhere: repeat it, shorter
+                self.rejected += 1
+                cap = 0.25 * h
+                if cap < 1e-10 * max(self.span, abs(t_prev)):
+                    return solver, (
+                        f"the loops cannot be followed at t = {t_prev:.6g} s: even short "
+                        f"steps close them {dev:.3g} away from the predicted configuration "
+                        "(another assembly branch, a singular position); the DAE "
+                        "formulation (formulation='dae') passes such places")
+                solver = self.make(t_prev, y_prev, first_step=cap, max_step=cap)
+                rhs.accepted = acc
+                self.capped = self.CAPPED_STEPS
+                continue
+            rhs.accept(solver.t, solver.y)
+            rhs.steps += 1
+            stalled = self.stall(solver.t)
+            if stalled:
+                return solver, stalled
+            if self.capped:
+                self.capped -= 1
+                if not self.capped and solver.status == "running":
+                    solver = self.make(solver.t, solver.y, first_step=h)
+            return solver, None
+
+
+def _march(solver, rhs, te, y0, progress, out, stepper):
+    """Step over the grid ``te``, appending to ``out``; returns (message or None, output
+    seconds). Before each step the partition is re-selected if it became ill-conditioned
+    (the solver restarts from the current state; the step after a restart provides the
+    dense output, so outputs never straddle a restart)."""
+    t_out = 0.0
+    rhs.accept(solver.t, solver.y)
+    with progress_counter(te.size, "simulating", progress) as advance:
+        for k, tk in enumerate(te):
+            while solver.t < tk - _same_time(tk) and solver.status == "running":
+                solver, msg = stepper.step(solver)
+                if msg:
+                    return msg, t_out
+            s0 = time.perf_counter()
+            if solver.t_old is None:
+                y = y0 if solver.t == te[0] else solver.y
+            elif abs(solver.t - tk) <= _same_time(tk):  # on a step end: no interpolation
+                y = solver.y
+            else:
+                y = solver.dense_output()(tk)
+            _record(rhs, tk, y, out)
+            advance(k + 1)
+            t_out += time.perf_counter() - s0
     return None, t_out
 
 
-def run(system, q0, qd0, t_span, t_eval, solver_cls, name, rtol, atol, progress,
-        max_step, options=None) -> SimulationResult:
-    """Integrate (see :func:`pipeline.solver.simulate` for the parameters)."""
-    q0, qd0, t0, t1, te = _check(system, q0, qd0, t_span, t_eval, rtol, atol)
+def run(system, q0, qd0, t0, t1, te, solver_cls, name, rtol, atol, progress,
+        max_step, options=None, max_steps=1_000_000, max_wall=None,
+        jump=0.1) -> SimulationResult:
+    """Integrate from a consistent (q0, qd0) (see :func:`pipeline.solver.simulate`)."""
     tic = time.perf_counter()
     part = partition_system(system, q0)
     rhs = _Rhs(system, part, q0)
     I = part.independent
     y0 = np.concatenate([q0[I], qd0[I], [0.0, 0.0]])
     out, msg, t_out = [], None, 0.0
+    stepper = None
     try:
-        def make(t, y):
+        def make(t, y, first_step=None, max_step=max_step):
             extra = {}
             if getattr(solver_cls, "SECOND_ORDER", False):  # y = [q_I, v_I, work, dissipated]
                 extra = {"n_second": rhs.nI, **(options or {})}
-            return solver_cls(rhs, t, y, t1, rtol=rtol, atol=atol, max_step=max_step, **extra)
+            return solver_cls(rhs, t, y, t1, rtol=rtol, atol=atol, max_step=max_step,
+                              first_step=first_step, **extra)
 
-        msg, t_out = _march(make(t0, y0), rhs, te, y0, progress, out, make)
+        stepper = _Stepper(rhs, make, t0, t1, max_step, max_steps, max_wall, jump, tic)
+        msg, t_out = _march(make(t0, y0), rhs, te, y0, progress, out, stepper)
     # ValueError: scipy's implicit methods refuse a non-finite Jacobian (a diverging trial
     # state); the run ends there with its history, like any other integrator failure
     except (PipelineError, np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
@@ -204,13 +286,14 @@ def run(system, q0, qd0, t_span, t_eval, solver_cls, name, rtol, atol, progress,
     total = time.perf_counter() - tic
     if msg:
         logger.warning("simulation: %s", msg)
+    stats = {"rejected": stepper.rejected if stepper else 0, "evaluations": rhs.count}
     return _result(system, part, out, msg, rhs.steps, rhs.count, name,
                    {"integrate": total - t_out, "output": t_out, "total": total},
-                   tuple(rhs.reselections))
+                   tuple(rhs.reselections), stats)
 
 
 def _result(system, part, out, msg, steps, n_rhs, name, timings,
-            reselections) -> SimulationResult:
+            reselections, stats) -> SimulationResult:
     n = system.mechanism.n
     names = system.mechanism.coordinates
     k = len(out)
@@ -223,4 +306,4 @@ def _result(system, part, out, msg, steps, n_rhs, name, timings,
         closure_residual=np.array([o[5] for o in out]), n_steps=steps, n_rhs=n_rhs,
         timings=timings, method=name, driven=tuple(names[i] for i in part.driven),
         driver_forces=np.array([o[6] for o in out]).reshape(k, part.driven.size),
-        reselections=reselections)
+        reselections=reselections, step_stats=stats, formulation="partitioned")

@@ -41,6 +41,13 @@ class SimulationResult:
     driver_forces : (k, p) force (N) / torque (N m) each driver applies along
         its coordinate (e.g. a prescribed-length cylinder's force).
     reselections : times (s) at which the independent coordinates were re-selected.
+    multipliers : (k, m) multipliers of the weighted closure rows (DAE formulation; the
+        minimum-norm ones where rows are redundant), N m per unit row.
+    step_stats : accepted/rejected steps, smallest and largest step, evaluations.
+    formulation : "dae" or "partitioned".
+    verdict : "ok", "suspect" (finished, but a trust check tripped: see ``warnings``) or
+        "partial" (stopped early: see ``message``).
+    warnings : what each tripped trust check found (:mod:`pipeline.solver.monitors`).
     """
 
     success: bool
@@ -60,13 +67,27 @@ class SimulationResult:
     driven: tuple[str, ...] = ()
     driver_forces: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     reselections: tuple[float, ...] = ()
+    multipliers: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    step_stats: Mapping[str, float] = field(default_factory=dict)
+    formulation: str = "partitioned"
+    verdict: str = ""
+    warnings: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "energies", MappingProxyType(dict(self.energies)))
         object.__setattr__(self, "timings", MappingProxyType(dict(self.timings)))
+        object.__setattr__(self, "step_stats", MappingProxyType(dict(self.step_stats)))
         object.__setattr__(self, "coordinates", tuple(self.coordinates))
         object.__setattr__(self, "driven", tuple(self.driven))
         object.__setattr__(self, "reselections", tuple(self.reselections))
+        object.__setattr__(self, "warnings", tuple(self.warnings))
+        if not self.verdict:
+            object.__setattr__(self, "verdict", "ok" if self.success else "partial")
+
+    @property
+    def report(self) -> str:
+        """One paragraph: verdict, message and every warning."""
+        return "; ".join([f"{self.verdict}: {self.message}", *self.warnings])
 
     def coordinate(self, name: str) -> np.ndarray:
         """(k,) history of coordinate ``name``."""
@@ -82,7 +103,10 @@ class SimulationResult:
                   "n_steps": np.array(self.n_steps), "n_rhs": np.array(self.n_rhs),
                   "driven": np.array(self.driven, dtype=str),
                   "driver_forces": self.driver_forces,
-                  "reselections": np.array(self.reselections, dtype=float)}
+                  "reselections": np.array(self.reselections, dtype=float),
+                  "multipliers": self.multipliers, "formulation": np.array(self.formulation),
+                  "verdict": np.array(self.verdict),
+                  "warnings": np.array(self.warnings, dtype=str)}
         arrays.update({f"energy_{k}": v for k, v in self.energies.items()})
         arrays.update({f"timing_{k}": np.array(v) for k, v in self.timings.items()})
         return save_npz_atomic(path, **arrays)
@@ -98,7 +122,8 @@ class SimulationResult:
                                + [self.closure_residual, self.driver_forces.reshape(
                                    self.t.size, -1)]) if self.t.size else np.zeros((0, len(cols)))
         with atomic_open(path, "w", newline="") as fh:
-            fh.write(f"# success={self.success} status={self.status} message={self.message}\n")
+            fh.write(f"# verdict={self.verdict} status={self.status} message={self.message}"
+                     + "".join(f" | warning: {w}" for w in self.warnings) + "\n")
             np.savetxt(fh, data, delimiter=",", header=",".join(cols), comments="",
                        fmt="%.17g")
         return path

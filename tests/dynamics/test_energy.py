@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from eom_models import flexible_double_pendulum, flexible_four_bar
 
 from pipeline.dynamics.energy import kinetic_energy
@@ -50,13 +51,15 @@ def test_modal_damping_dissipation_closes_the_balance():
     assert drift < 1e-5, drift
 
 
-def test_flexible_closed_loop_conserves_energy():
+@pytest.mark.parametrize("formulation", ["dae", "partitioned"])
+def test_flexible_closed_loop_conserves_energy(formulation):
     s = flexible_four_bar(n_modes=2).system
     q0 = s.mechanism.q_initial
     from pipeline.kinematics import assemble
     q0 = assemble(s.mechanism, q0).q
     r = simulate(s, q0, np.zeros_like(q0), (0.0, 0.5), np.linspace(0, 0.5, 26), rtol=1e-10,
-                 atol=1e-10, progress=False)
+                 atol=1e-10, progress=False, formulation=formulation)
+    assert r.formulation == formulation
     assert r.success, r.message
     assert r.closure_residual.max() < 1e-10
     drift = _drift(r)

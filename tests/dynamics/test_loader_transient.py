@@ -15,13 +15,20 @@ T_END = 0.1
 
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory):
+def loader(tmp_path_factory):
     reduced = reduce_links(tmp_path_factory.mktemp("loader_links"), arm_size=0.05,
                            link_size=0.03)
-    system, q0 = build_flexible_loader(reduced)
+    return build_flexible_loader(reduced)
+
+
+@pytest.fixture(scope="module", params=["dae", "partitioned"])
+def run(loader, request):
+    system, q0 = loader
     t = np.linspace(0.0, T_END, 11)
-    return system, simulate(system, q0, np.zeros_like(q0), (0.0, T_END), t, rtol=1e-8,
-                            atol=1e-8, progress=False)
+    r = simulate(system, q0, np.zeros_like(q0), (0.0, T_END), t, rtol=1e-8, atol=1e-8,
+                 progress=False, formulation=request.param)
+    assert r.formulation == request.param
+    return system, r
 
 
 @pytest.mark.gmsh

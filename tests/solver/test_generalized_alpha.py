@@ -73,14 +73,17 @@ def test_mode_far_above_the_step_is_damped_by_rho_inf(rho):
         assert late <= 0.01 * 4 * n * rho ** (n - 10) + 1e-15
 
 
-def test_closed_loop_stays_closed_and_matches_dop853():
+@pytest.mark.parametrize("formulation", ["dae", "partitioned"])
+def test_closed_loop_stays_closed_and_matches_dop853(formulation):
     s = flexible_four_bar().system
     q0 = assemble(s.mechanism, s.mechanism.q_initial).q
     qd0 = np.zeros_like(q0)
     te = np.linspace(0, 0.5, 6)
-    ref = simulate(s, q0, qd0, (0, 0.5), te, rtol=1e-10, atol=1e-10, progress=False)
+    ref = simulate(s, q0, qd0, (0, 0.5), te, rtol=1e-10, atol=1e-10, progress=False,
+                   formulation="partitioned")
     r = simulate(s, q0, qd0, (0, 0.5), te, method="generalized_alpha", step=1e-3,
-                 rho_inf=0.9, progress=False)
+                 rho_inf=0.9, progress=False, formulation=formulation)
+    assert r.formulation == formulation
     assert r.success, r.message
     assert r.closure_residual.max() < 1e-10
     assert np.abs(r.q - ref.q).max() < 1e-3

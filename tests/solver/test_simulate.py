@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "dynamics"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "kinematics"))
 from eom_models import flexible_double_pendulum, flexible_four_bar
 
 from pipeline.core.errors import ConfigError, SolverError
@@ -23,12 +24,15 @@ def _rigid_four_bar():
     return s, assemble(s.mechanism, s.mechanism.q_initial).q
 
 
-def test_four_bar_keeps_closure_for_10_s():
+@pytest.mark.parametrize("formulation", ["dae", "partitioned"])
+def test_four_bar_keeps_closure_for_10_s(formulation):
     s, q0 = _rigid_four_bar()
     qd0 = np.zeros_like(q0)
     qd0[0] = 3.0  # crank spin; the others follow from the loop
     r = simulate(s, q0, qd0, (0.0, 10.0), np.linspace(0, 10, 201), rtol=1e-9, atol=1e-9,
-                 progress=False)
+                 progress=False, formulation=formulation)
+    assert r.formulation == formulation
+    assert abs(r.qd[0, 0] - 3.0) < 1e-12  # the given rate is honoured
     assert r.success, r.message
     assert r.t[-1] == 10.0 and r.closure_residual.shape == (201,)
     assert r.closure_residual.max() < 1e-10, r.closure_residual.max()
@@ -131,3 +135,45 @@ def test_position_failure_in_a_trial_stage_rejects_the_step(monkeypatch, method)
                  progress=False)
     assert fired and r.success, r.message
     assert np.abs(r.q - ref.q).max() < 1e-6
+
+
+def test_a_trial_stage_closed_far_away_does_not_steer_the_run(monkeypatch):
+    """One trial stage of the partitioned run comes back closed three turns away (the wrist
+    angle wrapped by -6 pi: a far Newton's legitimate answer). The runs used to keep every
+    evaluation as the next guess, so the following ones continued from there and the run
+    ended 6 pi (18.85 rad) off, marked ok; now every position Newton starts from the last
+    accepted state and the run equals the undisturbed one."""
+    import dataclasses
+
+    from dyn2_models import rigid_bar
+    from kin_models import slider_crank
+
+    import pipeline.solver.integrate as integ
+    from pipeline.dynamics import BodyMass
+    from pipeline.kinematics.initial import initial_positions
+
+    r_, l_ = 0.2, 0.6
+    m = slider_crank(r_, l_, 0.0, theta0=0.3)
+    s = System(m, {"crank": rigid_bar(1.0, r_), "rod": rigid_bar(2.0, l_),
+                   "slider": BodyMass.rigid(3.0, [0, 0, 0], 0.01 * np.eye(3))},
+               gravity=[0.0, -9.81, 0.0])
+    q0 = initial_positions(m, m.q_initial, given={"crank.theta": 0.3})
+    qd0 = np.zeros(m.n)
+    qd0[0] = 20.0
+    te = np.linspace(0.0, 0.5, 51)
+    ref = simulate(s, q0, qd0, (0.0, 0.5), te, formulation="partitioned", progress=False)
+    real, fired = integ.reduced_state, []
+
+    def far(system, part, qI, qdI, t, guess, *drive):
+        st = real(system, part, qI, qdI, t, guess, *drive)
+        if t > 0.2 and not fired:
+            q = st.q.copy()
+            q[m.index("wrist.theta")] -= 6.0 * np.pi
+            st = dataclasses.replace(st, q=q)
+            fired.append(t)
+        return st
+
+    monkeypatch.setattr(integ, "reduced_state", far)
+    r = simulate(s, q0, qd0, (0.0, 0.5), te, formulation="partitioned", progress=False)
+    assert fired and r.verdict == "ok", r.report
+    assert np.abs(r.q - ref.q).max() < 1e-9

@@ -1,0 +1,162 @@
+"""Transient runs of the constrained equations (the DAE, DESIGN §4 (b)) by index-3
+generalised-alpha steps (:mod:`pipeline.solver.index3`).
+
+Step size: fixed (``step`` given: every step has that size, shortened only to end on t1 or
+halved after a rejected step) or adaptive from the local error estimate of the position update,
+e = (beta - 1/6) h^2 (q''_{n+1} - q''_n) (Zienkiewicz & Xie's estimate for Newmark-type
+methods), kept below atol * unit + rtol * |q| in the RMS norm. A step is rejected and retried
+with half its size when Newton fails, a state cannot be evaluated, or Newton converges more
+than ``jump`` away from the prediction (another assembly branch).
+
+Outputs: at each requested time between two step ends the positions and velocities are
+interpolated (cubic Hermite), projected onto the constraints (least-norm changes of the
+non-driven coordinates; the closure then holds to 1e-12 at every output), and the
+accelerations and multipliers are those of that state (the index-1 solve; minimum-norm
+multipliers where closure rows are redundant). The energy removed by damping and supplied by
+the drivers is integrated with the motion (trapezoidal rule over the steps).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+import numpy as np
+
+from pipeline.core.progress import progress_counter
+from pipeline.solver.constrained import ConstrainedSystem
+from pipeline.solver.index3 import Index3Stepper, StepState
+from pipeline.solver.monitors import StallWatch
+from pipeline.solver.outputs import OutputGrid, same_time
+from pipeline.solver.result import SimulationResult
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["run_dae"]
+
+
+def _powers(cs: ConstrainedSystem, s: StepState) -> np.ndarray:
+    """(driver power, dissipated power) W at an accepted state (its last Newton evaluation)."""
+    st = s.cs
+    p_nc = float(st.terms.Q_nonconservative @ s.v)
+    if cs.P.size:
+        f = cs.driver_forces(st, s.qdd, s.lam)
+        p_d = float(f @ s.v[cs.P])
+    else:
+        p_d = 0.0
+    return np.array([p_d, -p_nc])
+
+
+def run_dae(system, q0, qd0, t0, t1, te, *, rtol, atol, step=None, rho_inf=0.8,
+            max_step=np.inf, progress=True, max_steps=1_000_000, max_wall=None,
+            jump=0.1) -> SimulationResult:
+    """Integrate from a consistent (q0, qd0) (see :func:`pipeline.solver.simulate`)."""
+    tic = time.perf_counter()
+    cs = ConstrainedSystem(system)
+    unit = system.mechanism.coordinate_units
+    run = _Run(cs, unit, t0, t1, rtol, atol, step, max_step, max_steps, max_wall, tic)
+    newton = 1.0 if step else 0.1  # adaptive: Newton error well below the local error
+    stepper = Index3Stepper(cs, rho_inf, newton * rtol, newton * atol, 1e-10, unit, jump)
+    q, v = cs.with_drivers(t0, q0, qd0)
+    grid = OutputGrid(cs, te)
+    with progress_counter(te.size, "simulating", progress) as advance:
+        msg = run.march(stepper, stepper.start(t0, q, v), grid, advance)
+    total = time.perf_counter() - tic
+    if msg:
+        logger.warning("simulation: %s", msg)
+    stats = {"rejected": run.rejected, "h_min": run.hmin if run.steps else 0.0,
+             "h_max": run.hmax, "evaluations": stepper.evaluations,
+             "jacobians": stepper.jacobians}
+    return grid.result(msg, run.steps, stepper.evaluations, {"integrate": total, "total": total},
+                       "generalized_alpha", stats)
+
+
+class _Run:
+    """Step-size control and budgets of one run."""
+
+    def __init__(self, cs, unit, t0, t1, rtol, atol, step, max_step, max_steps, max_wall, tic):
+        self.cs, self.unit, self.t1 = cs, unit, t1
+        self.rtol, self.atol, self.step = rtol, atol, step
+        self.max_step, self.max_steps, self.max_wall, self.tic = max_step, max_steps, max_wall, tic
+        self.span = t1 - t0
+        self.h = min(float(step) if step else 1e-3 * self.span, max_step)
+        self.steps = self.rejected = 0
+        self.stall = StallWatch(self.span)
+        self.hmin, self.hmax = np.inf, 0.0
+
+    def _budget(self, t) -> str | None:
+        if self.steps >= self.max_steps:
+            return f"step budget of {self.max_steps} steps exhausted at t = {t:.6g} s"
+        if self.max_wall is not None and time.perf_counter() - self.tic > self.max_wall:
+            return f"wall-time budget of {self.max_wall:g} s exhausted at t = {t:.6g} s"
+        return None
+
+    def _too_small(self, h, t) -> bool:
+        return h < 1e-10 * max(self.span, abs(t)) or (self.step and h < 1e-6 * self.step)
+
+    EPUS = False
+
+    def _error(self, s0, s1, h, beta) -> float:
+        """RMS of the local position error estimate over its tolerance."""
+        U = self.cs.U
+        e = (beta - 1.0 / 6.0) * h * h * (s1.qdd - s0.qdd)[U]
+        if self.EPUS:
+            e = e * (self.span / h)
+        scale = self.atol * self.unit[U] + self.rtol * np.maximum(np.abs(s0.q[U]),
+                                                                  np.abs(s1.q[U]))
+        return float(np.sqrt(np.mean((e / scale) ** 2))) if e.size else 0.0
+
+    def march(self, stepper, s, grid, advance) -> str | None:
+        """Step from s to t1, recording outputs; returns a failure message or None."""
+        cs = self.cs
+        work, p = np.zeros(2), _powers(cs, s)
+        if grid.due(s.t):
+            grid.record(s.t, s.q, s.v, work)
+        while s.t < self.t1 - same_time(self.t1):
+            msg = self._budget(s.t)
+            if msg:
+                return msg
+            h = min(self.h, self.t1 - s.t)
+            if self.t1 - (s.t + h) < 1e-3 * h:  # no sliver of a last step
+                h = self.t1 - s.t
+            out = stepper.step(s, h)
+            if out.state is None:
+                self.rejected += 1
+                stepper.reset()
+                self.h = 0.5 * h
+                if self._too_small(self.h, s.t):
+                    return f"step size collapsed to {self.h:.3g} s at t = {s.t:.6g} s: " + \
+                        _FAILURES[out.why](out)
+                continue
+            s1 = out.state
+            if not self.step:
+                err = self._error(s, s1, h, stepper.beta)
+                p = 0.5 if self.EPUS else 1.0 / 3.0
+                factor = 4.0 if err == 0 else min(4.0, max(0.2, 0.9 * err ** (-p)))
+                if err > 1.0:
+                    self.rejected += 1
+                    self.h = h * min(factor, 0.9)
+                    if self._too_small(self.h, s.t):
+                        return (f"step size collapsed to {self.h:.3g} s at t = {s.t:.6g} s "
+                                "(error control)")
+                    continue
+                self.h = min(h * factor, self.max_step)
+            p1 = _powers(cs, s1)
+            work1 = work + 0.5 * h * (p + p1)
+            grid.fill_hermite(s.t, s.q, s.v, work, s1.t, s1.q, s1.v, work1)
+            advance(grid.k)
+            s, p, work = s1, p1, work1
+            self.steps += 1
+            self.hmin, self.hmax = min(self.hmin, h), max(self.hmax, h)
+            msg = self.stall(s.t)
+            if msg:
+                return msg
+        return None
+
+
+_FAILURES = {
+    "jump": lambda o: (f"the closed configuration left the predicted one by {o.correction:.3g} "
+                       "(another assembly branch?)"),
+    "newton": lambda o: "Newton did not converge",
+    "evaluation": lambda o: "the equations could not be evaluated",
+}
