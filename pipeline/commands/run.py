@@ -36,8 +36,11 @@ def run(args: argparse.Namespace) -> int:
     for name, cases in man["analyses"].items():
         for c in cases:
             tag = f" [{c['case']}]" if c["case"] else ""
-            mark = "ok" if c["success"] else f"PARTIAL: {c['message']}"
+            verdict = c.get("verdict", "ok" if c["success"] else "partial")
+            mark = {"ok": "ok", "partial": f"PARTIAL: {c['message']}"}.get(verdict, "SUSPECT")
             print(f"  {c['type']:<12} {name}{tag}: {c['outputs']} outputs, {c['seconds']} s, "
                   f"{mark}")
+            for w in c.get("warnings", []):
+                print(f"      {w}")
     print(f"  files: {', '.join(man['files'])}")
     return 0 if man["status"] == "ok" else 1

@@ -29,4 +29,34 @@ def run(args: argparse.Namespace) -> int:
         m = build_machine(wf)
         check_outputs(wf, m)
         print(f"built: {m.mechanism.n} coordinates ({', '.join(m.mechanism.coordinates)})")
+        for line in machine_report(m):
+            print(f"  {line}")
     return 0
+
+
+def machine_report(m) -> list[str]:
+    """Mobility, coordinates and initial energy of a built machine, one fact per line."""
+    import numpy as np
+
+    from pipeline.dynamics import energies
+    from pipeline.kinematics import closure, dof_report
+
+    mech, system = m.mechanism, m.system
+    rep = dof_report(mech, m.q0, list(system.drivers))
+    n_modal = len(mech.modal_coordinates)
+    lines = [f"DOF {rep.dof} = {rep.n_coordinates} coordinates - {rep.rank} independent "
+             f"closure constraints ({n_modal} modal, {len(system.drivers)} driven, "
+             f"{len(rep.free)} free joint coordinates"
+             + (f", {len(rep.passive)} passive)" if rep.passive else ")"),
+             f"independent coordinates: {list(rep.prescribed) + list(rep.free)}",
+             f"dependent coordinates: {list(rep.dependent)}"]
+    if rep.redundant:
+        lines.append(f"redundant constraints ({len(rep.redundant)}; kept by the DAE "
+                     f"formulation, their reactions minimum-norm): {list(rep.redundant)}")
+    for p in rep.passive:
+        lines.append(f"passive motion: link '{p.link}' spins about its own axis")
+    tree = closure(mech, m.q0, m.qd0).tree
+    e = energies(system, tree, m.q0, m.qd0)
+    lines.append("initial energy: " + ", ".join(f"{k} {v:.6g} J" for k, v in e.items())
+                 + f" (max |q'| {float(np.abs(m.qd0).max(initial=0.0)):.4g})")
+    return lines

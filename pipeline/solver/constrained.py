@@ -29,7 +29,13 @@ from pipeline.dynamics.partition import driver_state
 from pipeline.kinematics.closure import closure
 from pipeline.kinematics.partition import RANK_RTOL
 
-__all__ = ["ConstrainedState", "ConstrainedSystem"]
+__all__ = ["REGULARISATION", "ConstrainedState", "ConstrainedSystem", "least_norm",
+           "mass_scale", "saddle_solve", "saddle_solve_regularised"]
+
+#: regularisation of the saddle-point solves of integrators (see
+#: :func:`saddle_solve_regularised`): relaxes only constraint directions whose singular value
+#: of the dimensionless Jacobian is below about 1e-4
+REGULARISATION = 1e-8
 
 
 @dataclass(frozen=True)

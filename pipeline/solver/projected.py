@@ -25,7 +25,7 @@ import numpy as np
 
 from pipeline.core.errors import PipelineError
 from pipeline.core.progress import progress_counter
-from pipeline.solver.constrained import ConstrainedSystem
+from pipeline.solver.constrained import REGULARISATION, ConstrainedSystem
 from pipeline.solver.monitors import StallWatch
 from pipeline.solver.outputs import OutputGrid, same_time
 from pipeline.solver.result import SimulationResult
@@ -45,10 +45,7 @@ CAPPED_STEPS = 20
 class _Index1:
     """y' = f(t, y) of the index-1 form (see the module docstring)."""
 
-    #: regularisation of the acceleration solve (see ``saddle_solve_regularised``)
-    EPS = 1e-8
-
-    def __init__(self, cs: ConstrainedSystem, eps: float = EPS):
+    def __init__(self, cs: ConstrainedSystem, eps: float = REGULARISATION):
         self.cs, self.count, self.eps = cs, 0, eps
         self.nU = cs.U.size
 

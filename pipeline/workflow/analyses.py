@@ -29,6 +29,8 @@ class AnalysisResult:
     ----------
     name, type, case : analysis name, type and case label ("" without cases).
     success, message : status (partial histories when False).
+    verdict : "ok", "suspect" (finished, but a trust check tripped: ``warnings`` says which,
+        when and by how much) or "partial" (stopped early: ``message``).
     coordinates : (n,) coordinate names.
     t : (T,) s (static and linearised: one entry, the evaluation time).
     q, qd, qdd : (T, n) coordinates, rates, accelerations (rad, m, /s, /s^2).
@@ -52,6 +54,12 @@ class AnalysisResult:
     energies: dict = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
     timings: dict = field(default_factory=dict)
+    verdict: str = ""
+    warnings: tuple = ()
+
+    def __post_init__(self):
+        if not self.verdict:
+            object.__setattr__(self, "verdict", "ok" if self.success else "partial")
 
     @property
     def label(self) -> str:
@@ -113,7 +121,7 @@ def run_kinetostatic(m: Machine, a, path) -> dict:
 
 
 def run_dynamic(m: Machine, a, path) -> dict:
-    from pipeline.solver import simulate
+    from pipeline.solver import Limits, simulate
 
     q0 = m.q0
     if a.start == "static":
@@ -131,16 +139,23 @@ def run_dynamic(m: Machine, a, path) -> dict:
     elif a.step is not None:
         raise m.workflow.error(*path, "step", msg="a fixed step is for method "
                                                   "generalized_alpha; use max_step otherwise")
+    c = a.checks
+    limits = Limits(energy=c.energy, closure=c.closure, deformation=c.deformation,
+                    rotation=c.rotation, min_step=c.min_step)
     try:
         r = simulate(m.system, q0, m.qd0, (0.0, a.t_end), t_eval=_times(a), method=a.method,
-                     rtol=a.rtol, atol=a.atol, progress=True, **opts)
+                     rtol=a.rtol, atol=a.atol, progress=True, formulation=a.formulation,
+                     max_steps=a.max_steps, max_wall=a.max_wall, limits=limits, **opts)
     except ConfigError as exc:
         raise m.workflow.error(*path, msg=str(exc)) from None
     forces = {name: r.driver_forces[:, i] for i, name in enumerate(r.driven)}
+    extra = {"closure_residual": r.closure_residual, "n_steps": r.n_steps, "n_rhs": r.n_rhs,
+             "method": r.method, "formulation": r.formulation}
+    if r.multipliers.size:
+        extra["multipliers"] = r.multipliers
     return dict(success=r.success, message=r.message, t=r.t, q=r.q, qd=r.qd, qdd=r.qdd,
-                forces=forces, energies=dict(r.energies),
-                extra={"closure_residual": r.closure_residual, "n_steps": r.n_steps,
-                       "n_rhs": r.n_rhs, "method": r.method})
+                forces=forces, energies=dict(r.energies), extra=extra, verdict=r.verdict,
+                warnings=tuple(r.warnings))
 
 
 def run_linearised(m: Machine, a, path) -> dict:

@@ -19,8 +19,9 @@ from pydantic import ValidationError
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.dynamics import BodyMass, System, body_from_reduced
 from pipeline.dynamics.forces import FORCES
-from pipeline.kinematics import Joint, assemble, build_mechanism, evaluate_tree, rigid_link
+from pipeline.kinematics import Joint, build_mechanism, evaluate_tree, rigid_link
 from pipeline.kinematics.drivers import driver_from_dict
+from pipeline.kinematics.initial import initial_positions, initial_velocities
 from pipeline.kinematics.links import link_from_frames
 from pipeline.workflow.link_build import frame_axes, input_hash, link_request, reduce_spec
 from pipeline.workflow.link_spec import LinkSpec
@@ -330,22 +331,32 @@ def build_forces(wf: Workflow, mech, q0) -> list:
 
 
 def initial_state(wf: Workflow, mech, drivers, init=None, path=("initial",)):
-    """(q0, qd0): joints' initial values, ``initial:`` overrides (``init``, default the
-    workflow's), drivers at t = 0, loops closed."""
+    """(q0, qd0) consistent with the loops and the drivers at t = 0: the joints' ``initial``
+    values are the approximate assembly; the ``initial:`` coordinates and velocities
+    (``init``, default the workflow's) are honoured exactly where the loops allow, projected
+    by least squares where they over-determine them, and a value that cannot be honoured is
+    an error naming it (:mod:`pipeline.kinematics.initial`)."""
     init = wf.spec.initial if init is None else init
-    q = mech.q_initial.copy()
-    qd = np.zeros(mech.n)
-    for key, v in init.coordinates.items():
-        q[_coordinate(wf, mech, key, *path, "coordinates", key)] = v
-    for key, v in init.velocities.items():
-        qd[_coordinate(wf, mech, key, *path, "velocities", key)] = v
-    for key, d in drivers.items():
-        q[mech.index(key)] = float(d.value(0.0))
-        qd[mech.index(key)] = float(d.rate(0.0))
+    for key in init.coordinates:
+        _coordinate(wf, mech, key, *path, "coordinates", key)
+    for key in init.velocities:
+        _coordinate(wf, mech, key, *path, "velocities", key)
+    driven = {k: float(d.value(0.0)) for k, d in drivers.items()}
+    rates = {k: float(d.rate(0.0)) for k, d in drivers.items()}
+    for group, given in (("coordinates", init.coordinates), ("velocities", init.velocities)):
+        both = sorted(set(given) & set(driven))
+        if both:
+            raise wf.error(*path, group, both[0], msg="a driven coordinate's initial value "
+                           "comes from its driver; remove it here")
     try:
-        q = assemble(mech, q, tuple(drivers)).q
+        q = initial_positions(mech, mech.q_initial, driven, dict(init.coordinates))
     except PipelineError as exc:
-        raise wf.error(*path, msg=f"cannot assemble the machine at t = 0: {exc}") from None
+        where = (*path, "coordinates") if init.coordinates else path
+        raise wf.error(*where, msg=f"cannot assemble the machine at t = 0: {exc}") from None
+    try:
+        qd = initial_velocities(mech, q, rates, dict(init.velocities))
+    except PipelineError as exc:
+        raise wf.error(*path, "velocities", msg=str(exc)) from None
     return q, qd
 
 

@@ -61,7 +61,8 @@ def export_modes_csv(path: Path, r) -> None:
 def export_npz(path: Path, r) -> None:
     arrays = {"t": r.t, "q": r.q, "qd": r.qd, "qdd": r.qdd,
               "coordinates": np.array(r.coordinates), "success": np.array(r.success),
-              "message": np.array(r.message)}
+              "message": np.array(r.message), "verdict": np.array(r.verdict),
+              "warnings": np.array(list(r.warnings), dtype=str)}
     for k, v in r.forces.items():
         arrays[f"force:{k}"] = np.asarray(v)
     for k, v in r.energies.items():

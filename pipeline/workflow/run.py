@@ -186,7 +186,7 @@ def run_workflow(workflow: str | Path | Workflow, *, out_root: str | Path = "out
         files: list[str] = []
         if outputs:
             files = write_outputs(tmp, wf, machines, results, timings)
-        status = "ok" if all(r.success for rs in results.values() for r in rs) else "partial"
+        status = overall_status(r for rs in results.values() for r in rs)
         timings["total"] = time.perf_counter() - t_start
         manifest = _manifest(wf, base, results, timings, status, files)
         (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, default=str))
@@ -198,11 +198,18 @@ def run_workflow(workflow: str | Path | Workflow, *, out_root: str | Path = "out
     return RunResult(wf, final, base, machines, results, manifest)
 
 
+def overall_status(results) -> str:
+    """"partial" if any analysis stopped, else "suspect" if any tripped a check, else "ok"."""
+    verdicts = {r.verdict for r in results}
+    return next((v for v in ("partial", "suspect") if v in verdicts), "ok")
+
+
 def _manifest(wf: Workflow, base: Machine, results, timings, status, files) -> dict:
     analyses = {}
     for name, rs in results.items():
         analyses[name] = [{"case": r.case, "type": r.type, "success": r.success,
-                           "message": r.message, "outputs": int(len(r.t)),
+                           "verdict": r.verdict, "message": r.message,
+                           "warnings": list(r.warnings), "outputs": int(len(r.t)),
                            "seconds": round(r.timings.get("total", 0.0), 3)} for r in rs]
     links = {name: {"artifact": p.reduced.meta.get("input_hash", "")[:12], "cache": p.cache,
                     "modes": list(p.modes),

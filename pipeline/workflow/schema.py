@@ -206,14 +206,33 @@ class KinetostaticAnalysis(_Timed):
                                                      "joint coordinate)")
 
 
+class ChecksSpec(Strict):
+    """Thresholds of the trust checks on a dynamic run (a run beyond one is "suspect")."""
+
+    energy: float = Field(1e-2, gt=0, description="largest change of the energy balance, "
+                                                  "relative to the energy the run exchanged")
+    closure: float = Field(1e-6, gt=0, description="largest loop-closure residual, m or rad")
+    deformation: float = Field(0.05, gt=0, description="largest elastic displacement of a "
+                                                       "flexible link relative to its size")
+    rotation: float = Field(0.1, gt=0, description="largest elastic frame rotation, rad")
+    min_step: float = Field(1e-9, gt=0, description="smallest step relative to the span")
+
+
 class DynamicAnalysis(_Timed):
     type: Literal["dynamic"]
     method: str = Field("DOP853", description="DOP853 | Radau | BDF | RK45 | LSODA | "
                                               "generalized_alpha")
+    formulation: Literal["auto", "dae", "partitioned"] = Field(
+        "auto", description="closed loops: dae (every coordinate with multipliers; default) "
+                            "or partitioned (independent coordinates, the seed's method)")
+    max_steps: int = Field(1_000_000, ge=1, description="step budget")
+    max_wall: float | None = Field(None, gt=0, description="wall-clock budget, s")
+    checks: ChecksSpec = Field(default_factory=ChecksSpec)
     rtol: float = Field(1e-8, gt=0)
     atol: float = Field(1e-10, gt=0)
     max_step: float | None = Field(None, gt=0, description="s")
-    step: float | None = Field(None, gt=0, description="fixed step (generalized_alpha), s")
+    step: float | None = Field(None, gt=0, description="fixed step (generalized_alpha; "
+                                                       "adaptive when absent in the DAE), s")
     rho_inf: float = Field(0.8, ge=0, le=1, description="generalized_alpha spectral radius")
     start: Literal["initial", "static"] = Field(
         "initial", description="start from the initial state or from static equilibrium")
