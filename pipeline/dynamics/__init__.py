@@ -8,7 +8,13 @@ reactions), :func:`vibration_modes` (linearised); transient runs are
 :func:`body_from_reduced` and :func:`link_from_reduced`.
 """
 
-from pipeline.dynamics.bodies import body_from_reduced, link_from_reduced, modal_damping
+from pipeline.dynamics.bodies import (
+    body_from_reduced,
+    in_plane_modes,
+    link_from_reduced,
+    modal_damping,
+    project_on_plane,
+)
 from pipeline.dynamics.energy import energies, kinetic_energy
 from pipeline.dynamics.equations import equation_terms, equations
 from pipeline.dynamics.forces import FORCES
@@ -19,7 +25,8 @@ from pipeline.dynamics.system import BodyMass, System, rigid_C
 
 __all__ = [
     "FORCES", "BodyMass", "System", "body_from_reduced", "energies", "equation_terms",
-    "equations", "joint_reactions", "kinetic_energy", "kinetostatics", "link_from_reduced",
+    "equations", "in_plane_modes", "joint_reactions", "kinetic_energy", "kinetostatics",
+    "link_from_reduced", "project_on_plane",
     "linearize", "marker_motion", "modal_damping", "rigid_C", "static_equilibrium",
     "vibration_modes",
 ]

@@ -19,7 +19,47 @@ from pipeline.core.errors import ConfigError
 from pipeline.dynamics.system import BodyMass
 from pipeline.kinematics.links import Link, link_from_frames
 
-__all__ = ["body_from_reduced", "link_from_reduced", "modal_damping", "select_modes"]
+__all__ = ["PLANES", "body_from_reduced", "in_plane_modes", "link_from_reduced",
+           "modal_damping", "project_on_plane", "select_modes"]
+
+#: out-of-plane motion per plane of the body frame: (translation axis, rotation axes)
+PLANES = {"xy": (2, (0, 1)), "yz": (0, (1, 2)), "xz": (1, (0, 2))}
+
+
+def _plane(plane: str) -> tuple[int, tuple[int, int]]:
+    if plane not in PLANES:
+        raise ConfigError(f"plane: expected one of {sorted(PLANES)}, got {plane!r}")
+    return PLANES[plane]
+
+
+def in_plane_modes(reduced, plane: str, tol: float = 1e-2) -> tuple[int, ...]:
+    """Indices of the modes whose frames move in ``plane`` of the body frame ("xy", "yz" or
+    "xz"): out-of-plane translation and rotations of every frame below ``tol`` times the
+    in-plane ones. Planar loops need none of the others (the DAE formulation also runs with
+    them: the loops then constrain them)."""
+    t_out, r_out = _plane(plane)
+    t_in = [a for a in range(3) if a != t_out]
+    r_in = next(a for a in range(3) if a not in r_out)
+    keep = []
+    for a in range(reduced.n_modes):
+        out = max(max(abs(f.phi[a, t_out]), *np.abs(f.psi[a, list(r_out)]))
+                  for f in reduced.frames)
+        inp = max(max(*np.abs(f.phi[a, t_in]), abs(f.psi[a, r_in])) for f in reduced.frames)
+        if out <= tol * inp:
+            keep.append(a)
+    return tuple(keep)
+
+
+def project_on_plane(phi: np.ndarray, psi: np.ndarray, plane: str
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """(phi, psi) (m, 3) of a frame with their out-of-plane components set to zero: a planar
+    loop cannot follow the residual out-of-plane motion of in-plane modes (its out-of-plane
+    rows would lock them)."""
+    t_out, r_out = _plane(plane)
+    phi, psi = np.array(phi, dtype=float), np.array(psi, dtype=float)
+    phi[:, t_out] = 0.0
+    psi[:, list(r_out)] = 0.0
+    return phi, psi
 
 
 def select_modes(n_modes: int, modes: Sequence[int] | None, link: str) -> np.ndarray:
@@ -111,21 +151,26 @@ def _attached(reduced, idx, new: str, base: str, local) -> _FrameView:
 
 
 def link_from_reduced(reduced, modes: Sequence[int] | None = None, name: str | None = None,
-                      frames=None) -> Link:
+                      frames=None, plane: str | None = None) -> Link:
     """Kinematics Link with the ReducedLink's frames and the kept modes' phi/psi.
 
     Parameters
     ----------
     reduced : ReducedLink.
-    modes : kept mode indices (default all).
+    modes : kept mode indices (default all; :func:`in_plane_modes` for a planar loop).
     name : link name (default the reduced link's).
     frames : optional ``{new_name: (existing_frame, local pose (4, 4))}``: extra
         frames rigidly attached to existing ones (e.g. a pin axis across a
         bar whose interface frame has z along the bar).
+    plane : "xy", "yz" or "xz": the frames' modal motion projected on that plane of the
+        body frame (:func:`project_on_plane`), as for a planar loop.
     """
     idx = select_modes(reduced.n_modes, modes, reduced.name)
     views = [_FrameView(f.name, f.pose, np.asarray(f.phi)[idx], np.asarray(f.psi)[idx])
              for f in reduced.frames]
     views += [_attached(reduced, idx, k, base, local)
               for k, (base, local) in (frames or {}).items()]
+    if plane is not None:
+        for v in views:
+            v.phi, v.psi = project_on_plane(v.phi, v.psi, plane)
     return link_from_frames(name or reduced.name, views)

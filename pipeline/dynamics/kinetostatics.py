@@ -126,8 +126,8 @@ def _state(system, q, red, t, names, idx):
 
 def _repartition(system, q, red, idx):
     c = closure(system.mechanism, q)
-    prescribed = np.concatenate([idx, system.mechanism.modal_coordinates]).astype(int)
-    part = select_partition(system.mechanism, c.J, prescribed, q=q)
+    part = select_partition(system.mechanism, c.J, idx, q=q,
+                            secondary=system.mechanism.modal_coordinates)
     return type(red)(red.x, red.held, part)
 
 

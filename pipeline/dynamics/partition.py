@@ -3,7 +3,8 @@
 Independent coordinates: the modal coordinates and the free joint variables
 (drivers are prescribed functions of time and not integrated); dependent
 ones come from position analysis at every evaluation, so the loops never
-drift. Velocities q' = B q'_I + b (b from the driver rates), accelerations
+drift. Modal coordinates become dependent only where the joints cannot satisfy the
+loops (a planar loop whose flexible link keeps out-of-plane modes: the pins lock them). Velocities q' = B q'_I + b (b from the driver rates), accelerations
 q'' = B q''_I + c, and the reduced equations
 
     (B^T M B) q''_I = B^T (rhs - M c).
@@ -93,12 +94,11 @@ def partition_system(system, q: np.ndarray) -> DynamicPartition:
     mech = system.mechanism
     names = list(system.drivers)
     driven = mech.indices(names) if names else np.zeros(0, dtype=int)
-    prescribed = np.concatenate([driven, mech.modal_coordinates]).astype(int)
     J = closure(mech, np.asarray(q, dtype=float)).J
-    kin = select_partition(mech, J, prescribed, q=np.asarray(q, dtype=float))
-    ind = np.sort(np.concatenate([mech.modal_coordinates, kin.free]).astype(int))
-    return DynamicPartition(kin, ind, driven, tuple(system.drivers[k] for k in names),
-                            bool(mech.topology.loops))
+    kin = select_partition(mech, J, driven, q=np.asarray(q, dtype=float),
+                           secondary=mech.modal_coordinates)
+    return DynamicPartition(kin, np.sort(kin.free).astype(int), driven,
+                            tuple(system.drivers[k] for k in names), bool(mech.topology.loops))
 
 
 def _rcond(mech, J: np.ndarray, kin: Partition) -> float:
@@ -133,11 +133,10 @@ def repartition(system, part: DynamicPartition, q: np.ndarray, factor: float = 1
     now = _rcond(mech, J, part.kin)
     if now > 0.1 or now >= 0.5 * part.kin.rcond:  # well or still as conditioned as chosen
         return None
-    kin = select_partition(mech, J, part.kin.prescribed, q=q)
+    kin = select_partition(mech, J, part.kin.prescribed, q=q, secondary=part.kin.secondary)
     if kin.rcond < factor * now or np.array_equal(kin.dependent, part.kin.dependent):
         return replace(part, kin=replace(part.kin, rcond=now))
-    ind = np.sort(np.concatenate([mech.modal_coordinates, kin.free]).astype(int))
-    return DynamicPartition(kin, ind, part.driven, part.drivers, True)
+    return DynamicPartition(kin, np.sort(kin.free).astype(int), part.driven, part.drivers, True)
 
 
 def driver_state(part: DynamicPartition, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -108,7 +108,7 @@ def reduced_coordinates(system, q: np.ndarray, hold=()) -> tuple[np.ndarray, Red
     held = list(system.drivers) + [h for h in hold if h not in system.drivers]
     a = assemble(mech, q, driven=held)
     part = a.partition
-    x = np.concatenate([part.free, mech.modal_coordinates]).astype(int)
+    x = np.sort(part.free).astype(int)  # free joints and the independent modal coordinates
     return a.q, ReducedCoordinates(x, mech.indices(held).astype(int), part)
 
 

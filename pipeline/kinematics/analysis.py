@@ -173,7 +173,10 @@ def solve_position(mech: Mechanism, q_guess: np.ndarray, part: Partition, *, tol
     q, c, it, ok = _newton(mech, q, part, w, tol, max_iter)
     if ok:
         return q, c, it
-    q, nfev = _closest(mech, q, part, w, max_nfev, part.dependent if keep_free else None)
+    movable = part.dependent if keep_free else np.setdiff1d(
+        np.arange(mech.n), np.union1d(part.prescribed, np.setdiff1d(part.secondary,
+                                                                     part.dependent)))
+    q, nfev = _closest(mech, q, part, w, max_nfev, movable)
     q2, c, it2, ok = _newton(mech, q, part, w, tol, max_iter)
     if ok:
         return q2, c, it + nfev + it2
@@ -222,7 +225,8 @@ def solve_acceleration(J: np.ndarray, gamma: np.ndarray, part: Partition,
 
 
 def _check_drivers(mech: Mechanism, J: np.ndarray, prescribed: np.ndarray, driven) -> None:
-    """Raise if the prescribed coordinates leave fewer unknowns than constraints."""
+    """Raise if the prescribed coordinates leave fewer unknowns than constraints (decided on
+    an assembled or closest configuration: an unclosed guess has spurious rank)."""
     Jn = normalised_jacobian(mech, J)[0]
     cand = np.setdiff1d(np.arange(mech.n), prescribed)
     rank, rank_c = numerical_rank(Jn), numerical_rank(Jn[:, cand])
@@ -239,7 +243,9 @@ def assemble(mech: Mechanism, q_guess: np.ndarray | None = None, driven=(), *,
 
     Parameters
     ----------
-    q_guess : (n,) start (default ``mech.q_initial``); driven and modal entries are kept.
+    q_guess : (n,) start (default ``mech.q_initial``); driven entries are kept, modal ones
+        too unless the loops constrain them (a planar loop's flexible link keeping
+        out-of-plane modes: those become dependent coordinates).
     driven : names of the driven coordinates.
 
     Raises
@@ -253,16 +259,23 @@ def assemble(mech: Mechanism, q_guess: np.ndarray | None = None, driven=(), *,
     if q.shape != (mech.n,) or not np.all(np.isfinite(q)):
         raise ConfigError(f"q_guess: expected {mech.n} finite values, got {q.shape} "
                           f"(finite: {bool(np.all(np.isfinite(q)))})")
-    prescribed = np.concatenate([mech.indices(driven), mech.modal_coordinates]).astype(int)
-    c0 = closure(mech, q)
-    _check_drivers(mech, c0.J, prescribed, driven)
+    prescribed = np.unique(mech.indices(driven)).astype(int)
+    modal = mech.modal_coordinates
+
+    def partition(q, c):
+        try:
+            return select_partition(mech, c.J, prescribed, q=q, secondary=modal)
+        except SingularConfigurationError:
+            _check_drivers(mech, c.J, prescribed, driven)  # the clearer reason, if it is that
+            raise
+
     try:
-        part = select_partition(mech, c0.J, prescribed, q=q)
+        part = select_partition(mech, closure(mech, q).J, prescribed, q=q, secondary=modal)
     except SingularConfigurationError:  # a poor guess may be singular: start least squares
-        part = Partition(np.zeros(0, int), np.zeros(0, int), np.unique(prescribed),
-                         np.zeros(0, int), 0.0)
-        q, _ = _closest(mech, q, part, row_weights(mech), 400)
-        part = select_partition(mech, closure(mech, q).J, prescribed, q=q)
+        part = Partition(np.zeros(0, int), np.zeros(0, int), prescribed, np.zeros(0, int), 0.0,
+                         modal)
+        joints = np.setdiff1d(np.arange(mech.n), np.union1d(prescribed, modal))
+        q, _ = _closest(mech, q, part, row_weights(mech), 400, joints)
+        part = partition(q, closure(mech, q))
     q, c, it = solve_position(mech, q, part, tol=tol, keep_free=False)
-    part = select_partition(mech, c.J, prescribed, q=q)
-    return Assembly(q, c, part, it)
+    return Assembly(q, c, partition(q, c), it)

@@ -26,7 +26,7 @@ Examples
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as sla
@@ -54,6 +54,9 @@ class Partition:
     free : remaining independent coordinate indices (held by the caller).
     rcond : smallest / largest singular value of the normalised dependent block
         when it was selected.
+    secondary : coordinates preferred independent (the modal ones): dependent only where
+        the others cannot satisfy the loops (a planar loop's flexible link keeping
+        out-of-plane modes); independent ones among them are in ``free``.
     """
 
     rows: np.ndarray
@@ -61,6 +64,7 @@ class Partition:
     prescribed: np.ndarray
     free: np.ndarray
     rcond: float
+    secondary: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
     @property
     def independent(self) -> np.ndarray:
@@ -187,15 +191,38 @@ def singular_joints(mech: Mechanism, B: np.ndarray, cand: np.ndarray,
     return tuple(names)
 
 
+def _dependent(B: np.ndarray, rank: int, primary: np.ndarray) -> np.ndarray:
+    """Positions of ``rank`` columns of B for the dependent block: the best-conditioned
+    among the ``primary`` ones (a boolean mask), completed with the best of the others for
+    the directions the primary columns cannot span."""
+    prim, sec = np.flatnonzero(primary), np.flatnonzero(~primary)
+    if not sec.size or not prim.size:
+        order = prim if prim.size else sec
+        return order[_pivots(B[:, order])[:rank]] if rank else order[:0]
+    Bp = B[:, prim]
+    rp = min(numerical_rank(Bp), rank)
+    chosen = prim[_pivots(Bp)[:rp]] if rp else prim[:0]
+    if rp < rank:
+        Q = np.linalg.qr(B[:, chosen])[0] if chosen.size else np.zeros((B.shape[0], 0))
+        rest = B[:, sec] - Q @ (Q.T @ B[:, sec])
+        chosen = np.concatenate([chosen, sec[_pivots(rest)[:rank - rp]]])
+    return chosen
+
+
 def select_partition(mech: Mechanism, J: np.ndarray, prescribed, *, t: float | None = None,
                      drivers: dict[str, float] | None = None, q: np.ndarray | None = None,
-                     expected_rank: int | None = None, rcond_min: float = RANK_RTOL) -> Partition:
+                     expected_rank: int | None = None, rcond_min: float = RANK_RTOL,
+                     secondary=None) -> Partition:
     """Choose independent rows and the best-conditioned dependent coordinates.
 
     Parameters
     ----------
     J : (6 k, n) closure Jacobian at the configuration.
-    prescribed : indices of driven and modal coordinates.
+    prescribed : indices of the held coordinates (drivers; the modal ones too when
+        ``secondary`` is None).
+    secondary : coordinates made dependent only where the others cannot satisfy the loops
+        (default none: pass the modal coordinates here instead of in ``prescribed`` to let
+        the loops constrain a flexible link's out-of-plane modes).
     t, drivers, q : context reported if the configuration is singular.
     expected_rank : the number of independent constraints established at
         assembly; fewer here is a singular configuration (e.g. a bifurcation).
@@ -208,6 +235,8 @@ def select_partition(mech: Mechanism, J: np.ndarray, prescribed, *, t: float | N
         the constraints themselves lost rank.
     """
     prescribed = np.unique(np.asarray(prescribed, dtype=int))
+    sec = np.zeros(0, dtype=int) if secondary is None else np.setdiff1d(
+        np.asarray(secondary, dtype=int), prescribed)
     Jn, _ = normalised_jacobian(mech, J)
     rank = numerical_rank(Jn)
     rows = _independent_rows(Jn, rank)
@@ -215,9 +244,11 @@ def select_partition(mech: Mechanism, J: np.ndarray, prescribed, *, t: float | N
     B = Jn[rows][:, cand]
     r_exp = rank if expected_rank is None else expected_rank
     if rank == 0 and r_exp == 0:
-        return Partition(rows, np.zeros(0, dtype=int), prescribed, cand, 1.0)
-    piv = _pivots(B) if cand.size and rank else np.zeros(0, int)
-    dep = np.sort(cand[piv[:rank]]) if cand.size >= rank else cand
+        return Partition(rows, np.zeros(0, dtype=int), prescribed, cand, 1.0, sec)
+    if cand.size >= rank:
+        dep = np.sort(cand[_dependent(B, rank, ~np.isin(cand, sec))]) if rank else cand[:0]
+    else:
+        dep = cand
     s = np.linalg.svd(Jn[rows][:, dep], compute_uv=False) if dep.size else np.zeros(1)
     rc = float(s[-1] / s[0]) if dep.size == rank and s[0] > 0 else 0.0
     if rc < rcond_min or rank < r_exp:
@@ -231,7 +262,7 @@ def select_partition(mech: Mechanism, J: np.ndarray, prescribed, *, t: float | N
         raise SingularConfigurationError(
             f"singular configuration{where}{drv}: {what}; joints losing rank: {list(joints)}",
             joints, q if q is not None else np.full(mech.n, np.nan), t, drivers, rc)
-    return Partition(rows, dep, prescribed, np.setdiff1d(cand, dep), rc)
+    return Partition(rows, dep, prescribed, np.setdiff1d(cand, dep), rc, sec)
 
 
 def _passive(mech: Mechanism, tree, Nq: np.ndarray) -> tuple[PassiveMotion, ...]:
@@ -270,16 +301,18 @@ def dof_report(mech: Mechanism, q: np.ndarray, driven=()) -> DofReport:
     Parameters
     ----------
     q : (n,) an assembled configuration (closure satisfied).
-    driven : names of driven coordinates (modal coordinates are always prescribed).
+    driven : names of driven coordinates. Modal coordinates count as prescribed unless the
+        loops constrain them (then they are listed among the dependent ones).
     """
     q = np.asarray(q, dtype=float)
     c = closure(mech, q)
-    pres = np.concatenate([mech.indices(driven), mech.modal_coordinates]).astype(int)
-    part = select_partition(mech, c.J, pres, q=q)
+    modal = mech.modal_coordinates
+    part = select_partition(mech, c.J, mech.indices(driven), q=q, secondary=modal)
     Jn, col = normalised_jacobian(mech, c.J)
     names = mech.row_names()
     redundant = tuple(names[i] for i in np.setdiff1d(np.arange(len(names)), part.rows))
-    cand = np.setdiff1d(np.arange(mech.n), part.prescribed)
+    held = np.union1d(part.prescribed, np.setdiff1d(modal, part.dependent)).astype(int)
+    cand = np.setdiff1d(np.arange(mech.n), np.union1d(held, modal))
     Nq = np.zeros((mech.n, 0))
     if cand.size:
         Nc = _null_vectors(Jn[part.rows][:, cand]) if part.rows.size else np.eye(cand.size)
@@ -287,5 +320,6 @@ def dof_report(mech: Mechanism, q: np.ndarray, driven=()) -> DofReport:
         Nq[cand] = Nc / col[cand, None]
     cn = mech.coordinates
     return DofReport(mech.n, len(part.rows), mech.n - len(part.rows), redundant,
-                     tuple(cn[i] for i in part.prescribed), tuple(cn[i] for i in part.dependent),
-                     tuple(cn[i] for i in part.free), _passive(mech, c.tree, Nq))
+                     tuple(cn[i] for i in held), tuple(cn[i] for i in part.dependent),
+                     tuple(cn[i] for i in np.setdiff1d(part.free, modal)),
+                     _passive(mech, c.tree, Nq))

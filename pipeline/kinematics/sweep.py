@@ -161,7 +161,6 @@ def sweep(mech: Mechanism, drivers: Mapping[str, object], t, q_guess: np.ndarray
     q = np.array(mech.q_initial if q_guess is None else q_guess, dtype=float)
     v, _, _ = _driver_state(drv, t[0])
     q[idx] = v
-    prescribed = np.concatenate([idx, mech.modal_coordinates]).astype(int)
     reselections, message, done = [], "ok", 0
     try:
         part = assemble(mech, q, names, tol=tol).partition
@@ -177,7 +176,7 @@ def sweep(mech: Mechanism, drivers: Mapping[str, object], t, q_guess: np.ndarray
             qd[idx], qdd[idx] = vd, vdd
             ctx = dict(zip(names, v))
             q, c, its[k] = _solve_point(mech, q, part, tol, tk, ctx)
-            new = _reselect(mech, c.J, part, prescribed, rank, reselect_factor, tk, ctx, q)
+            new = _reselect(mech, c.J, part, rank, reselect_factor, tk, ctx, q)
             if new is not None:
                 part = new
                 reselections.append(float(tk))
@@ -196,13 +195,14 @@ def sweep(mech: Mechanism, drivers: Mapping[str, object], t, q_guess: np.ndarray
                        message, done, its, tuple(reselections), free)
 
 
-def _reselect(mech, J, part, prescribed, rank, factor, tk, ctx, q):
+def _reselect(mech, J, part, rank, factor, tk, ctx, q):
     """A new partition if the dependent block's rcond fell by more than ``factor``, else None."""
     Jn = normalised_jacobian(mech, J)[0][part.rows][:, part.dependent]
     s = np.linalg.svd(Jn, compute_uv=False) if Jn.size else np.ones(1)
     if not (s.size and s[-1] / s[0] < part.rcond / factor):
         return None
-    new = select_partition(mech, J, prescribed, t=tk, drivers=ctx, q=q, expected_rank=rank)
+    new = select_partition(mech, J, part.prescribed, t=tk, drivers=ctx, q=q, expected_rank=rank,
+                           secondary=part.secondary)
     logger.info("re-selected dependent coordinates at t = %.6g s: %s", tk,
                 [mech.coordinates[i] for i in new.dependent])
     return new

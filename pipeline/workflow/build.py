@@ -18,6 +18,7 @@ from pydantic import ValidationError
 
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.dynamics import BodyMass, System, body_from_reduced
+from pipeline.dynamics.bodies import in_plane_modes, project_on_plane
 from pipeline.dynamics.forces import FORCES
 from pipeline.kinematics import Joint, build_mechanism, evaluate_tree, rigid_link
 from pipeline.kinematics.drivers import driver_from_dict
@@ -31,8 +32,6 @@ from pipeline.workflow.yaml_io import config_error, load_yaml
 
 #: fields of force elements that name a marker as "link.frame"
 MARKER_FIELDS = ("marker", "marker_a", "marker_b")
-#: out-of-plane motions per plane: (translation axis, rotation axes) in the body frame
-_OUT_OF_PLANE = {"xy": (2, (0, 1)), "yz": (0, (1, 2)), "xz": (1, (0, 2))}
 
 
 @dataclass(frozen=True)
@@ -118,19 +117,8 @@ def _link_spec(wf: Workflow, name: str, entry) -> tuple[LinkSpec, Path]:
 def kept_modes(reduced, modes, plane: str | None, tol: float = 1e-2) -> tuple[int, ...]:
     """Indices of the kept modes: a count (lowest n) or indices, optionally only those
     whose frames move in ``plane`` (out-of-plane motion below ``tol`` x in-plane)."""
-    candidates = list(range(reduced.n_modes))
-    if plane is not None:
-        t_out, r_out = _OUT_OF_PLANE[plane]
-        t_in = [a for a in range(3) if a != t_out]
-        r_in = [a for a in range(3) if a not in r_out][0]
-        keep = []
-        for a in candidates:
-            out = max(max(abs(f.phi[a, t_out]), *np.abs(f.psi[a, list(r_out)]))
-                      for f in reduced.frames)
-            inp = max(max(*np.abs(f.phi[a, t_in]), abs(f.psi[a, r_in])) for f in reduced.frames)
-            if out <= tol * inp:
-                keep.append(a)
-        candidates = keep
+    candidates = list(range(reduced.n_modes)) if plane is None else list(
+        in_plane_modes(reduced, plane, tol))
     if modes is None:
         return tuple(candidates)
     if isinstance(modes, int):
@@ -152,9 +140,7 @@ def _flex_frames(reduced, idx, plane, extra, where_frames) -> list[_View]:
     for f in reduced.frames:
         phi, psi = np.array(f.phi)[list(idx)], np.array(f.psi)[list(idx)]
         if plane is not None:  # the planar loops cannot follow residual out-of-plane motion
-            t_out, r_out = _OUT_OF_PLANE[plane]
-            phi[:, t_out] = 0.0
-            psi[:, list(r_out)] = 0.0
+            phi, psi = project_on_plane(phi, psi, plane)
         views[f.name] = _View(f.name, np.array(f.pose, dtype=float), phi, psi)
     for new, fs in extra.items():
         if fs.on not in views:

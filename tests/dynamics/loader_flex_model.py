@@ -28,6 +28,7 @@ import loader_geometry as lg
 from loader_model import R_REV, _cyl_pose, _link_frames, point3
 
 from pipeline.dynamics import BodyMass, System, body_from_reduced
+from pipeline.dynamics import in_plane_modes as dynamics_in_plane_modes
 from pipeline.dynamics.forces import PointForce
 from pipeline.kinematics import Joint, build_mechanism, evaluate_tree, rigid_link
 from pipeline.kinematics.drivers import Constant, SmoothStep
@@ -68,13 +69,7 @@ modes: {{count: {modes}}}
 def in_plane_modes(red, n: int, tol: float = 1e-3) -> list[int]:
     """Indices of the first n modes whose frames move in the x-y plane only
     (phi_z, psi_x, psi_y below tol x the in-plane motion)."""
-    keep = []
-    for a in range(red.n_modes):
-        out = max(max(abs(f.phi[a, 2]), *np.abs(f.psi[a, :2])) for f in red.frames)
-        inp = max(max(*np.abs(f.phi[a, :2]), abs(f.psi[a, 2])) for f in red.frames)
-        if out <= tol * inp:
-            keep.append(a)
-    return keep[:n]
+    return list(dynamics_in_plane_modes(red, "xy", tol))[:n]
 
 
 def reduce_links(folder: Path, arm_size: float = 0.02, link_size: float = 0.015,
