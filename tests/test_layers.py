@@ -13,12 +13,13 @@ ONLY_IN = {
     "pyvista": ("post",),
     "pydantic": ("workflow",),
     "yaml": ("workflow",),
-    "numba": ("kinematics", "dynamics"),
+    "numba": ("kinematics", "dynamics", "solver"),
 }
 #: subpackage -> pipeline subpackages it must not import (the solver side stays FE-free)
 FORBIDDEN = {
     "kinematics": ("meshing", "fem", "modes", "invariants", "dynamics", "post", "workflow"),
-    "dynamics": ("meshing", "fem", "modes", "post", "workflow"),
+    "dynamics": ("meshing", "fem", "modes", "post", "workflow", "solver"),
+    "solver": ("meshing", "fem", "modes", "invariants", "post", "workflow"),
     "invariants": ("post", "workflow"),
     "fem": ("modes", "invariants", "kinematics", "dynamics", "post", "workflow"),
     "meshing": ("fem", "modes", "invariants", "kinematics", "dynamics", "post", "workflow"),

@@ -83,7 +83,7 @@ def inertia_terms(cm: CompiledMasses, tree, q: np.ndarray, qd: np.ndarray | None
     return M, (h if rates else None), Qg
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _frob(X, Y):
     """X : Y = sum_kl X[k, l] Y[k, l] for 4x4."""
     s = 0.0
@@ -93,7 +93,7 @@ def _frob(X, Y):
     return s
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _mmt_add(X, Y, c, out):
     """out += c X @ Y^T for 4x4."""
     for i in range(4):
@@ -116,8 +116,18 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp):
     Z = np.zeros((4, 4))
     T1 = np.zeros((4, 4))
     T2 = np.zeros((4, 4))
+    nz = np.empty(n, dtype=np.int64)
     for b in range(link.shape[0]):
         li, m = link[b], n_modes[b]
+        # the coordinates this link's pose depends on (dA_i = 0 for the others: their terms
+        # are exact zeros, skipped)
+        cnt = 0
+        for i in range(n):
+            for k in range(16):
+                if dA[li, i, k // 4, k % 4] != 0.0:
+                    nz[cnt] = i
+                    cnt += 1
+                    break
         # J(eta) and N_a(eta)
         J[:] = C[b]
         for a in range(m):
@@ -131,16 +141,20 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp):
             J += q[idx[b, a]] * (N[a] - Cp[b, a])  # sum_ab eta_a eta_b C''_ba
         Al = A[li]
         # M_ij += (dA_i J) : dA_j
-        for i in range(n):
+        for ii in range(cnt):
+            i = nz[ii]
             _mm(dA[li, i], J, X[i])
-        for i in range(n):
-            for j in range(i, n):
+        for ii in range(cnt):
+            i = nz[ii]
+            for jj in range(ii, cnt):
+                j = nz[jj]
                 v = _frob(X[i], dA[li, j])
                 M[i, j] += v
                 if j != i:
                     M[j, i] += v
         # gravity: dA_i : (g J[:, 3]^T)
-        for i in range(n):
+        for ii in range(cnt):
+            i = nz[ii]
             s = 0.0
             for k in range(4):
                 for l in range(4):
@@ -151,7 +165,8 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp):
             # M_ia += dA_i : (A N_a^T); M_ab += (A C''_ab) : A
             T1[:] = 0.0
             _mmt_add(Al, N[a], 1.0, T1)
-            for i in range(n):
+            for ii in range(cnt):
+                i = nz[ii]
                 v = _frob(dA[li, i], T1)
                 M[i, ia] += v
                 M[ia, i] += v
@@ -173,8 +188,8 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp):
             for c in range(m):
                 T1 += qd[idx[b, c]] * N[c]
             _mmt_add(Ad[li], T1, 2.0, Z)
-        for i in range(n):
-            h[i] += _frob(dA[li, i], Z)
+        for ii in range(cnt):
+            h[nz[ii]] += _frob(dA[li, nz[ii]], Z)
         # h_a += A : (A'' N_a + 2 A' G_a^T),  G_a = sum_c C''_ac eta'_c
         for a in range(m):
             Gm[a] = 0.0
@@ -209,28 +224,21 @@ def closed_state(kin, masses: CompiledMasses, q_guess: np.ndarray, rows: np.ndar
     out = _closed_state(np.array(q_guess, dtype=float), rows, dep, cols,
                         np.ascontiguousarray(rates_cols, dtype=float),
                         np.ascontiguousarray(accels_cols, dtype=float), weights, tol, max_iter,
-                        max_move, gravity4, kin.n_links,
-                        kin.root, kin.frm, kin.n_modes, kin.eta, kin.pose, kin.dS,
-                        kin.n_motions, kin.kind, kin.gen, kin.gen2, kin.qi, kin.tail, kin.order,
-                        kin.slot, kin.loops, kin.depends, kin.loop_depends, masses.link,
+                        max_move, gravity4, kin.arrays(), masses.link,
                         masses.n_modes, masses.idx, masses.C, masses.Cp, masses.Cpp)
     return out[1:] if out[0] else None
 
 
 @njit(cache=True)
 def _closed_state(q, rows, dep, cols, rates_cols, accels_cols, weights, tol, max_iter,
-                  max_move, g, L, root, frm,
-                  n_modes, eta, pose, dS, n_motions, kind, gen, gen2, qi, tail, order, slot,
-                  loops, depends, loop_depends, link, m_modes, idx, C, Cp, Cpp):
+                  max_move, g, kin, link, m_modes, idx, C, Cp, Cpp):
     n = q.shape[0]
     nd, nc = dep.shape[0], cols.shape[0]
     qd = np.zeros(n)
     ok = False
     prev = np.inf
     for it in range(max_iter + 1):
-        A, dA, Ad, Add, r, J, gam = _kinematics(q, qd, False, L, root, frm, n_modes, eta, pose,
-                                                dS, n_motions, kind, gen, gen2, qi, tail, order,
-                                                slot, loops, depends, loop_depends)
+        A, dA, Ad, Add, r, J, gam = _kinematics(q, qd, False, *kin)
         err = 0.0
         for i in range(r.shape[0]):
             err = max(err, abs(weights[i] * r[i]))
@@ -279,9 +287,7 @@ def _closed_state(q, rows, dep, cols, rates_cols, accels_cols, weights, tol, max
         for c in range(nc):
             s += X[i, c] * rates_cols[c]
         qd[i] = s
-    A, dA, Ad, Add, _, _, gam = _kinematics(q, qd, True, L, root, frm, n_modes, eta, pose, dS,
-                                              n_motions, kind, gen, gen2, qi, tail, order, slot,
-                                              loops, depends, loop_depends)
+    A, dA, Ad, Add, _, _, gam = _kinematics(q, qd, True, *kin)
     # c: q'' with the unknown q''[cols] = 0, i.e. R_dep c_dep = gamma - R_cols accels_cols
     b = np.empty(nd)
     for a in range(nd):

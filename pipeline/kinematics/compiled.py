@@ -49,7 +49,9 @@ class CompiledMechanism:
     after the root, slot (L,) their step; loops (K, 2) steps of each loop's two sides;
     depends (L, n) whether a link's pose depends on a coordinate (dA is zero elsewhere:
     the derivative products are skipped there); loop_depends (K, n) the same for the
-    closure rows of each loop.
+    closure rows of each loop; fast (S,) the closed form of a rigid step with at most one
+    motion (-1 none, 0 rotation, 1 translation, 2 fixed; Step.fast), with its constant
+    matrices fastC (S, 3, 4, 4) = C0, C1, C2 and coordinate fastq (S,).
     """
 
     n: int
@@ -71,6 +73,16 @@ class CompiledMechanism:
     loops: np.ndarray
     depends: np.ndarray
     loop_depends: np.ndarray
+    fast: np.ndarray
+    fastC: np.ndarray
+    fastq: np.ndarray
+
+    def arrays(self) -> tuple:
+        """The arrays in the order of the kernels' arguments (after q, qd, rates)."""
+        return (self.n_links, self.root, self.frm, self.n_modes, self.eta, self.pose, self.dS,
+                self.n_motions, self.kind, self.gen, self.gen2, self.qi, self.tail, self.order,
+                self.slot, self.loops, self.depends, self.loop_depends, self.fast, self.fastC,
+                self.fastq)
 
 
 @dataclass(frozen=True)
@@ -130,9 +142,20 @@ def compile_mechanism(mech) -> CompiledMechanism:
         for s in pair:
             loop_depends[kk] |= depends[steps[s].frm]
             loop_depends[kk, steps[s].local] = True
+    fast = np.full(S, -1, dtype=np.int64)
+    fastC = np.zeros((S, 3, 4, 4))
+    fastq = np.zeros(S, dtype=np.int64)
+    codes = {"R": 0, "T": 1, "fixed": 2}
+    for s, st in enumerate(steps):
+        if st.fast is not None:
+            fast[s] = codes[st.fast[0]]
+            for k in range(3):
+                if st.fast[1 + k] is not None:
+                    fastC[s, k] = st.fast[1 + k]
+            fastq[s] = max(st.fast[4], 0)
     return CompiledMechanism(mech.n, len(mech.links), int(mech.placement[0]), frm, n_modes, eta,
                              pose, dS, n_motions, kind, gen, gen @ gen, qi, tail, order, slot,
-                             loops, depends, loop_depends)
+                             loops, depends, loop_depends, fast, fastC, fastq)
 
 
 def evaluate(cm: CompiledMechanism, q: np.ndarray, qd: np.ndarray | None = None) -> Evaluation:
@@ -141,17 +164,14 @@ def evaluate(cm: CompiledMechanism, q: np.ndarray, qd: np.ndarray | None = None)
     q = np.ascontiguousarray(q, dtype=float)
     rates = qd is not None
     qd = np.ascontiguousarray(qd, dtype=float) if rates else np.zeros_like(q)
-    A, dA, Ad, Add, r, J, g = _kernel(q, qd, rates, cm.n_links, cm.root, cm.frm, cm.n_modes,
-                                      cm.eta, cm.pose, cm.dS, cm.n_motions, cm.kind, cm.gen,
-                                      cm.gen2, cm.qi, cm.tail, cm.order, cm.slot, cm.loops,
-                                      cm.depends, cm.loop_depends)
+    A, dA, Ad, Add, r, J, g = _kernel(q, qd, rates, *cm.arrays())
     if not rates:
         return Evaluation(A, dA, None, None, r, J, None)
     return Evaluation(A, dA, Ad, Add, r, J, g)
 
 
 # --------------------------------------------------------------------------- kernels
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _mm(X, Y, out):
     """out = X @ Y for 4x4 (out must not alias X or Y)."""
     for i in range(4):
@@ -160,7 +180,7 @@ def _mm(X, Y, out):
                 + X[i, 3] * Y[3, j]
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _mm_add(X, Y, c, out):
     """out += c X @ Y for 4x4."""
     for i in range(4):
@@ -271,7 +291,7 @@ def _place(f, s, A, dA, Ad, Add, rates, n_modes, eta, n_motions, qi, M, dMe, dMx
         _mm_add(A[f], Mdd, 1.0, Pdd)
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _abt_add(X, Y, c, out):
     """out += c X[:3, :3] @ Y[:3, :3]^T (rotation blocks of two 4x4 matrices)."""
     for i in range(3):
@@ -279,7 +299,7 @@ def _abt_add(X, Y, c, out):
             out[i, j] += c * (X[i, 0] * Y[j, 0] + X[i, 1] * Y[j, 1] + X[i, 2] * Y[j, 2])
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _vee_into(E, out, o, sign):
     """out[o:o+3] = sign * axial vector of the skew part of the 3x3 block of E."""
     out[o] = sign * 0.5 * (E[2, 1] - E[1, 2])
@@ -287,9 +307,41 @@ def _vee_into(E, out, o, sign):
     out[o + 2] = sign * 0.5 * (E[1, 0] - E[0, 1])
 
 
+@njit(cache=True, inline='always')
+def _fast_step(s, q, qd, rates, fast, fastC, fastq, M, dM, Md, Mdd):
+    """A rigid step with at most one motion in closed form (Step.fast): rotation
+    M = C0 + sin x C1 + (1 - cos x) C2, translation M = C0 + x C1, fixed M = C0."""
+    k = fast[s]
+    x = q[fastq[s]]
+    w = qd[fastq[s]]
+    if k == 0:
+        sn, cs = np.sin(x), np.cos(x)
+        for i in range(4):
+            for j in range(4):
+                c1, c2 = fastC[s, 1, i, j], fastC[s, 2, i, j]
+                M[i, j] = fastC[s, 0, i, j] + sn * c1 + (1.0 - cs) * c2
+                dM[i, j] = cs * c1 + sn * c2
+                if rates:
+                    Md[i, j] = w * dM[i, j]
+                    Mdd[i, j] = w * w * (cs * c2 - sn * c1)
+    elif k == 1:
+        for i in range(4):
+            for j in range(4):
+                c1 = fastC[s, 1, i, j]
+                M[i, j] = fastC[s, 0, i, j] + x * c1
+                dM[i, j] = c1
+                if rates:
+                    Md[i, j] = w * c1
+                    Mdd[i, j] = 0.0
+    else:
+        for i in range(4):
+            for j in range(4):
+                M[i, j] = fastC[s, 0, i, j]
+
+
 @njit(cache=True)
 def _kernel(q, qd, rates, L, root, frm, n_modes, eta, pose, dS, n_motions, kind, gen, gen2, qi,
-            tail, order, slot, loops, depends, loop_depends):
+            tail, order, slot, loops, depends, loop_depends, fast, fastC, fastq):
     n = q.shape[0]
     S = frm.shape[0]
     MM = dS.shape[1]
@@ -304,6 +356,9 @@ def _kernel(q, qd, rates, L, root, frm, n_modes, eta, pose, dS, n_motions, kind,
     Tw = np.zeros((KK + 1, 4, 4))
     w4 = np.zeros((11, 4, 4))
     for s in range(S):
+        if fast[s] >= 0:
+            _fast_step(s, q, qd, rates, fast, fastC, fastq, Ms[s], dMx[s, 0], Md[s], Mdd[s])
+            continue
         _step(s, q, qd, rates, n_modes, eta, pose, dS, n_motions, kind, gen, gen2, qi, tail,
               Ms[s], dMe[s], dMx[s], Md[s], Mdd[s], F, Pw, Tw, w4[0], w4[1], w4[2], w4[3],
               w4[4], w4[5], w4[6], w4[7], w4[8], w4[9])

@@ -81,6 +81,20 @@ class ConstrainedSystem:
         """(values, rates, accelerations), each (p,), of the drivers at t (s)."""
         return driver_state(self, t)
 
+    def drive_table(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(values, rates, accelerations), each (k, p), of the drivers at the times (k,) s
+        (one vectorised call per driver)."""
+        times = np.asarray(times, dtype=float).reshape(-1)
+        out = np.empty((3, times.size, self.P.size))
+        if times.size <= 4:  # a few times: the scalar evaluations are cheaper
+            for k, t in enumerate(times):
+                out[:, k, :] = np.reshape(self.drive(float(t)), (3, self.P.size))
+            return out[0], out[1], out[2]
+        for j, d in enumerate(self.drivers):
+            out[0, :, j], out[1, :, j], out[2, :, j] = d.value(times), d.rate(times), \
+                d.accel(times)
+        return out[0], out[1], out[2]
+
     def with_drivers(self, t: float, q, qd=None, qdd=None):
         """Copies of q (and qd, qdd) with the driven entries set to the drivers at t."""
         d = self.drive(t)

@@ -24,8 +24,8 @@ import time
 import numpy as np
 
 from pipeline.core.progress import progress_counter
-from pipeline.solver.constrained import REGULARISATION, ConstrainedSystem
-from pipeline.solver.index3 import Index3Stepper, StepState
+from pipeline.solver.constrained import ConstrainedSystem
+from pipeline.solver.index3_compiled import stepper as make_stepper
 from pipeline.solver.monitors import StallWatch
 from pipeline.solver.outputs import OutputGrid, same_time
 from pipeline.solver.result import SimulationResult
@@ -33,19 +33,6 @@ from pipeline.solver.result import SimulationResult
 logger = logging.getLogger(__name__)
 
 __all__ = ["run_dae"]
-
-
-def _powers(cs: ConstrainedSystem, s: StepState) -> np.ndarray:
-    """(driver power, dissipated power) W at an accepted state, from its last Newton
-    evaluation and the accelerations and multipliers of the index-1 solve there: the
-    index-3 multipliers carry O(h) errors after the start and after step-size changes, the
-    index-1 ones do not (so the driver work integral keeps the method's order)."""
-    st = s.cs
-    p_nc = float(st.terms.Q_nonconservative @ s.v)
-    if not cs.P.size:
-        return np.array([0.0, -p_nc])
-    qdd, lam = cs.accelerations(st, eps=REGULARISATION)
-    return np.array([float(cs.driver_forces(st, qdd, lam) @ s.v[cs.P]), -p_nc])
 
 
 def run_dae(system, q0, qd0, t0, t1, te, *, rtol, atol, step=None, rho_inf=0.8,
@@ -57,9 +44,10 @@ def run_dae(system, q0, qd0, t0, t1, te, *, rtol, atol, step=None, rho_inf=0.8,
     unit = system.mechanism.coordinate_units
     run = _Run(cs, unit, t0, t1, rtol, atol, step, max_step, max_steps, max_wall, tic)
     newton = 1.0 if step else 0.1  # adaptive: Newton error well below the local error
-    stepper = Index3Stepper(cs, rho_inf, newton * rtol, newton * atol, 1e-10, unit, jump)
+    stepper = make_stepper(cs, rho_inf=rho_inf, newton_rtol=newton * rtol,
+                           newton_atol=newton * atol, closure_tol=1e-10, unit=unit, jump=jump)
     q, v = cs.with_drivers(t0, q0, qd0)
-    grid = OutputGrid(cs, te)
+    grid = OutputGrid(cs, te, getattr(stepper, "output", None))
     with progress_counter(te.size, "simulating", progress) as advance:
         msg = run.march(stepper, stepper.start(t0, q, v), grid, advance)
     total = time.perf_counter() - tic
@@ -81,6 +69,7 @@ class _Run:
         self.max_step, self.max_steps, self.max_wall, self.tic = max_step, max_steps, max_wall, tic
         self.span = t1 - t0
         self.h = min(float(step) if step else 1e-3 * self.span, max_step)
+        self.nominal = self.h
         self.steps = self.rejected = 0
         self.stall = StallWatch(self.span)
         self.hmin, self.hmax = np.inf, 0.0
@@ -95,28 +84,28 @@ class _Run:
     def _too_small(self, h, t) -> bool:
         return h < 1e-10 * max(self.span, abs(t)) or (self.step and h < 1e-6 * self.step)
 
-    EPUS = False
-
     def _error(self, s0, s1, h, beta) -> float:
         """RMS of the local position error estimate over its tolerance."""
         U = self.cs.U
         e = (beta - 1.0 / 6.0) * h * h * (s1.qdd - s0.qdd)[U]
-        if self.EPUS:
-            e = e * (self.span / h)
         scale = self.atol * self.unit[U] + self.rtol * np.maximum(np.abs(s0.q[U]),
                                                                   np.abs(s1.q[U]))
         return float(np.sqrt(np.mean((e / scale) ** 2))) if e.size else 0.0
 
     def march(self, stepper, s, grid, advance) -> str | None:
         """Step from s to t1, recording outputs; returns a failure message or None."""
-        cs = self.cs
-        work, p = np.zeros(2), _powers(cs, s)
+        work = np.zeros(2)
         if grid.due(s.t):
             grid.record(s.t, s.q, s.v, work)
         while s.t < self.t1 - same_time(self.t1):
             msg = self._budget(s.t)
             if msg:
                 return msg
+            if self.step and self.h == self.nominal and hasattr(stepper, "march"):
+                s, work, msg = self._stretch(stepper, s, grid, advance, work)
+                if msg:
+                    return msg
+                continue
             h = min(self.h, self.t1 - s.t)
             if self.t1 - (s.t + h) < 1e-3 * h:  # no sliver of a last step
                 h = self.t1 - s.t
@@ -132,8 +121,7 @@ class _Run:
             s1 = out.state
             if not self.step:
                 err = self._error(s, s1, h, stepper.beta)
-                p = 0.5 if self.EPUS else 1.0 / 3.0
-                factor = 4.0 if err == 0 else min(4.0, max(0.2, 0.9 * err ** (-p)))
+                factor = 4.0 if err == 0 else min(4.0, max(0.2, 0.9 * err ** (-1.0 / 3.0)))
                 if err > 1.0:
                     self.rejected += 1
                     self.h = h * min(factor, 0.9)
@@ -142,17 +130,49 @@ class _Run:
                                 "(error control)")
                     continue
                 self.h = min(h * factor, self.max_step)
-            p1 = _powers(cs, s1)
-            work1 = work + 0.5 * h * (p + p1)
+            else:  # back towards the user's step after a halved one
+                self.h = min(2.0 * h, self.nominal)
+            work1 = work + 0.5 * h * (s.powers + s1.powers)
             grid.fill_hermite(s.t, s.q, s.v, work, s1.t, s1.q, s1.v, work1)
             advance(grid.k)
-            s, p, work = s1, p1, work1
+            s, work = s1, work1
             self.steps += 1
             self.hmin, self.hmax = min(self.hmin, h), max(self.hmax, h)
             msg = self.stall(s.t)
             if msg:
                 return msg
         return None
+
+
+    def _stretch(self, stepper, s, grid, advance, work):
+        """Fixed steps up to the next output time in one compiled call; the step that
+        fails (if one does) is retried by the caller at half the size. Returns (state,
+        work, message or None)."""
+        h = self.nominal
+        target = min(grid.te[grid.k] if not grid.done else self.t1, self.t1)
+        count = max(1, int(np.ceil((target - s.t) / h - 1e-9)))
+        while count > 1 and s.t + count * h > self.t1 + same_time(self.t1):
+            count -= 1
+        count = min(count, self.max_steps - self.steps)
+        if s.t + count * h > self.t1 + same_time(self.t1):  # only a shortened last step
+            self.h = self.t1 - s.t
+            return s, work, None
+        done, why, before, last, work1 = stepper.march(s, h, count, work)
+        if done:
+            grid.fill_hermite(before[0], before[1], before[2], before[3], last.t, last.q,
+                              last.v, work1)
+            advance(grid.k)
+            s, work = last, work1
+            self.steps += done
+            self.hmin, self.hmax = min(self.hmin, h), max(self.hmax, h)
+            msg = self.stall(s.t)
+            if msg:
+                return s, work, msg
+        if why:
+            self.rejected += 1
+            stepper.reset()
+            self.h = 0.5 * h
+        return s, work, None
 
 
 _FAILURES = {

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from pipeline.solver.constrained import ConstrainedState, ConstrainedSystem
+from pipeline.solver.constrained import REGULARISATION, ConstrainedState, ConstrainedSystem
 from pipeline.solver.generalized_alpha import coefficients
 
 __all__ = ["Index3Stepper", "StepOutcome", "StepState"]
@@ -47,7 +47,9 @@ __all__ = ["Index3Stepper", "StepOutcome", "StepState"]
 @dataclass(frozen=True)
 class StepState:
     """An accepted state: t (s), q, v, qdd (n,), a (n,) the algorithm's acceleration-like
-    variable, lam (m,) multipliers, cs the ConstrainedState at (q, v) if evaluated."""
+    variable, lam (m,) multipliers, powers (2,) the driver power and minus the dissipated
+    power there (W; from the index-1 accelerations and multipliers of the state: the
+    index-3 multipliers carry O(h) errors after the start and after step-size changes)."""
 
     t: float
     q: np.ndarray
@@ -55,7 +57,7 @@ class StepState:
     qdd: np.ndarray
     a: np.ndarray
     lam: np.ndarray
-    cs: ConstrainedState | None = None
+    powers: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -114,7 +116,7 @@ class Index3Stepper:
         st = cs.evaluate(t, q, v)
         self.evaluations += 1
         qdd, lam = cs.accelerations(st)
-        return StepState(t, q.copy(), v.copy(), qdd, qdd.copy(), lam, st)
+        return StepState(t, q.copy(), v.copy(), qdd, qdd.copy(), lam, powers(cs, st, v))
 
     # ------------------------------------------------------------------ pieces
     def _coeffs(self, h):
@@ -228,8 +230,8 @@ class Index3Stepper:
                 a_new = a1 + (1.0 - af) / (1.0 - am) * (qdd - s0.qdd)
                 a_new[cs.P] = aP
                 # st: the last evaluation, a correction below the Newton tolerance away
-                return StepOutcome(StepState(t1, q, v, qdd, a_new, lam, st), it + 1, "", moved,
-                                   closure_err)
+                return StepOutcome(StepState(t1, q, v, qdd, a_new, lam, powers(cs, st, v)),
+                                   it + 1, "", moved, closure_err)
         self.stale = True
         return StepOutcome(None, self.MAX_NEWTON, "newton", 0.0, closure_err)
 
@@ -237,3 +239,12 @@ class Index3Stepper:
         """Forget the iteration matrix (after a failed step)."""
         self.S = None
 
+
+def powers(cs: ConstrainedSystem, st: ConstrainedState, v: np.ndarray) -> np.ndarray:
+    """(driver power, -dissipated power) W at the state of ``st`` with rates v: the
+    drivers' forces from the index-1 accelerations and multipliers there."""
+    p_nc = float(st.terms.Q_nonconservative @ v)
+    if not cs.P.size:
+        return np.array([0.0, -p_nc])
+    qdd, lam = cs.accelerations(st, eps=REGULARISATION)
+    return np.array([float(cs.driver_forces(st, qdd, lam) @ v[cs.P]), -p_nc])

@@ -38,9 +38,12 @@ def hermite(q0, v0, q1, v1, h, s):
 class OutputGrid:
     """The output times ``te`` (s) and the rows recorded so far (``k`` of them)."""
 
-    def __init__(self, cs: ConstrainedSystem, te: np.ndarray):
+    def __init__(self, cs: ConstrainedSystem, te: np.ndarray, compiled=None):
         self.cs, self.te, self.k = cs, te, 0
         self.rows = []
+        #: ``compiled(t, q, v)`` -> (q, v, qdd, lam, F, energies, residual): the same state
+        #: from one compiled call (CompiledStepper.output), or None
+        self.compiled = compiled
 
     @property
     def done(self) -> bool:
@@ -66,6 +69,10 @@ class OutputGrid:
 
     def record(self, t, q, v, work):
         """Project (q, v) at t, evaluate and append an output row."""
+        if self.compiled is not None:
+            q, v, qdd, lam, F, e, res = self.compiled(t, q, v)
+            self._append(t, q, v, qdd, lam, F, e, res, work)
+            return
         cs = self.cs
         q = cs.project_positions(t, q)
         _, v = cs.with_drivers(t, q, v)
@@ -75,11 +82,14 @@ class OutputGrid:
             st = cs.evaluate(t, q, v)
         qdd, lam = cs.accelerations(st)
         e = energies(cs.system, st.terms.tree, q, v, M=st.terms.M)
+        res = float(np.abs(st.c / cs.w).max()) if cs.m else 0.0
+        self._append(t, q, v, qdd, lam, cs.driver_forces(st, qdd, lam), e, res, work)
+
+    def _append(self, t, q, v, qdd, lam, F, e, res, work):
         e["driver_work"], e["dissipated"] = float(work[0]), float(work[1])
         e["total"] = (e["kinetic"] + e["gravity"] + e["elastic"] + e["forces"] + e["dissipated"]
                       - e["driver_work"])
-        res = float(np.abs(st.c / cs.w).max()) if cs.m else 0.0
-        self.rows.append((t, q, v, qdd, e, res, cs.driver_forces(st, qdd, lam), lam))
+        self.rows.append((t, q, v, qdd, e, res, F, lam))
         self.k += 1
 
     def result(self, msg, steps, n_eval, timings, method, stats) -> SimulationResult:

@@ -1,0 +1,472 @@
+"""Compiled index-3 generalised-alpha steps (numba): the same mathematics as
+:class:`pipeline.solver.index3.Index3Stepper` and :class:`~pipeline.solver.constrained.
+ConstrainedSystem` (the numpy reference, tested equal), run as one machine-code call per
+stretch of steps.
+
+Why: a step of a small machine is a few hundred small-array operations (poses, mass matrix,
+closure rows, a saddle-point solve, Newton bookkeeping); in Python their call overhead is
+~50x their arithmetic. Here a step of the rigid four-bar costs a few microseconds.
+
+Arguments are grouped in tuples: ``kin`` the CompiledMechanism arrays in the order of
+:func:`kin_tuple`, ``mass`` the CompiledMasses arrays, ``frc`` the force-element arrays of
+:class:`~pipeline.solver.dae_data.CompiledDae` and ``par`` the scalar settings
+(alpha_m, alpha_f, beta, gamma, rtol, atol, closure_tol, jump, eps).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from pipeline.dynamics.compiled import _kernel as _inertia
+from pipeline.kinematics.compiled import _kernel as _kinematics
+
+__all__ = ["kin_tuple", "march", "mass_tuple", "output", "step", "terms"]
+
+MAX_NEWTON = 12
+REFRESH_AFTER = 3
+
+
+def kin_tuple(cm) -> tuple:
+    """The CompiledMechanism's arrays in the kernels' order."""
+    return cm.arrays()
+
+
+def mass_tuple(cm) -> tuple:
+    return (cm.link, cm.n_modes, cm.idx, cm.C, cm.Cp, cm.Cpp)
+
+
+@njit(cache=True)
+def _marker_point(k, q, A, dA, mlink, mc0, mca, midx, mnm, p, dp):
+    """p (3,) = a marker point in ground, dp (n, 3) its derivatives (module dae_data)."""
+    li = mlink[k]
+    loc = mc0[k].copy()
+    for a in range(mnm[k]):
+        loc += q[midx[k, a]] * mca[k, a]
+    for r in range(3):
+        p[r] = A[li, r, 3] + A[li, r, 0] * loc[0] + A[li, r, 1] * loc[1] + A[li, r, 2] * loc[2]
+    n = q.shape[0]
+    for i in range(n):
+        for r in range(3):
+            dp[i, r] = dA[li, i, r, 3] + dA[li, i, r, 0] * loc[0] + dA[li, i, r, 1] * loc[1] \
+                + dA[li, i, r, 2] * loc[2]
+    for a in range(mnm[k]):
+        i = midx[k, a]
+        for r in range(3):
+            dp[i, r] += A[li, r, 0] * mca[k, a, 0] + A[li, r, 1] * mca[k, a, 1] \
+                + A[li, r, 2] * mca[k, a, 2]
+
+
+@njit(cache=True)
+def _forces(q, v, A, dA, factor, frc, Q, Qnc):
+    """Add every compiled force element's generalized force to Q and its non-conservative
+    part to Qnc (see :mod:`pipeline.solver.dae_data` for the kinds)."""
+    fkind, fint, fpar, fcons, mlink, mc0, mca, midx, mnm = frc
+    n = q.shape[0]
+    pa, pb = np.zeros(3), np.zeros(3)
+    da, db = np.zeros((n, 3)), np.zeros((n, 3))
+    for e in range(fkind.shape[0]):
+        kind = fkind[e]
+        if kind == 0:
+            i = fint[e, 0]
+            Q[i] += -fpar[e, 0] * (q[i] - fpar[e, 1]) - fpar[e, 2] * v[i]
+            Qnc[i] += -fpar[e, 2] * v[i]
+        elif kind == 1:
+            i = fint[e, 0]
+            Q[i] += fpar[e, 3] * factor[e]
+            if not fcons[e]:
+                Qnc[i] += fpar[e, 3] * factor[e]
+        elif kind == 2:
+            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, pa, da)
+            _marker_point(fint[e, 1], q, A, dA, mlink, mc0, mca, midx, mnm, pb, db)
+            d = pb - pa
+            length = np.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
+            u = d / length
+            dl = (db - da) @ u
+            rate = dl @ v
+            tension = fpar[e, 3] + fpar[e, 0] * (length - fpar[e, 1]) + fpar[e, 2] * rate
+            for i in range(n):
+                Q[i] -= tension * dl[i]
+                Qnc[i] -= fpar[e, 2] * rate * dl[i]
+        else:
+            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, pa, da)
+            for i in range(n):
+                s = factor[e] * (da[i, 0] * fpar[e, 3] + da[i, 1] * fpar[e, 4]
+                                 + da[i, 2] * fpar[e, 5])
+                Q[i] += s
+                if not fcons[e]:
+                    Qnc[i] += s
+
+
+@njit(cache=True)
+def terms(q, v, factor, kin, mass, K, D, g, w, frc):
+    """(M (n, n), rhs (n,), Q_nc (n,), c (m,), C (m, n), gamma (m,)) at (q, v): the
+    equations M q'' + C^T lambda = rhs, c = w Phi, C = dc/dq, C q'' = gamma (weighted)."""
+    return _terms(q, v, factor, kin, mass, K, D, g, w, frc)[:6]
+
+
+@njit(cache=True, inline='always')
+def _terms(q, v, factor, kin, mass, K, D, g, w, frc):
+    """:func:`terms` and the link poses A, dA and the closure residual r used."""
+    A, dA, Ad, Add, r, J, gam = _kinematics(q, v, True, *kin)
+    M, hv, Qg = _inertia(q, v, True, A, dA, Ad, Add, g, *mass)
+    Qnc = -(D @ v)
+    Qf = np.zeros(q.shape[0])
+    _forces(q, v, A, dA, factor, frc, Qf, Qnc)
+    rhs = Qg - K @ q - (D @ v) + Qf - hv
+    m = r.shape[0]
+    c = np.empty(m)
+    C = np.empty((m, q.shape[0]))
+    gw = np.empty(m)
+    for i in range(m):
+        c[i] = w[i] * r[i]
+        gw[i] = w[i] * gam[i]
+        for j in range(q.shape[0]):
+            C[i, j] = w[i] * J[i, j]
+    return M, rhs, Qnc, c, C, gw, A, dA, r
+
+
+@njit(cache=True)
+def _residual_U(M, rhs, C, qdd, lam, U):
+    """(M q'' - rhs + C^T lambda)[U]."""
+    R = M @ qdd - rhs
+    if C.shape[0]:
+        R += C.T @ lam
+    out = np.empty(U.shape[0])
+    for k in range(U.shape[0]):
+        out[k] = R[U[k]]
+    return out
+
+
+@njit(cache=True)
+def _saddle(S, CU, f, g, eps, refine):
+    """(x, lambda) of S x + C^T lambda = f, C x = g by the regularised, refined solve
+    (constrained.saddle_solve_regularised)."""
+    k, m = S.shape[0], CU.shape[0]
+    s = 0.0
+    for i in range(k):
+        s = max(s, abs(S[i, i]))
+    if s == 0.0:
+        s = 1.0
+    Kr = np.zeros((k + m, k + m))
+    Kr[:k, :k] = S
+    Kr[:k, k:] = s * CU.T
+    Kr[k:, :k] = s * CU
+    for i in range(m):
+        Kr[k + i, k + i] = -eps * s
+    b = np.concatenate((f, s * g))
+    z = np.linalg.solve(Kr, b)
+    for _ in range(refine):
+        r = b - Kr @ z
+        for i in range(m):
+            r[k + i] -= eps * s * z[k + i]
+        z = z + np.linalg.solve(Kr, r)
+    return z[:k], s * z[k:]
+
+
+@njit(cache=True)
+def _powers(M, rhs, Qnc, C, gw, v, qddP, U, P, eps):
+    """(driver power, -dissipated power) W at a state: the index-1 accelerations and
+    multipliers there (regularised solve), the driver forces F_P = (M q'' - rhs + C^T lam)_P."""
+    n = v.shape[0]
+    pnc = Qnc @ v
+    if P.shape[0] == 0:
+        return 0.0, -pnc
+    qdd = np.zeros(n)
+    for k in range(P.shape[0]):
+        qdd[P[k]] = qddP[k]
+    nU = U.shape[0]
+    MUU = np.empty((nU, nU))
+    f = np.empty(nU)
+    Mq = M @ qdd
+    for a in range(nU):
+        f[a] = rhs[U[a]] - Mq[U[a]]
+        for b in range(nU):
+            MUU[a, b] = M[U[a], U[b]]
+    m = C.shape[0]
+    CU = np.empty((m, nU))
+    g = gw - C @ qdd
+    for i in range(m):
+        for b in range(nU):
+            CU[i, b] = C[i, U[b]]
+    x, lam = _saddle(MUU, CU, f, g, eps, 2)
+    for a in range(nU):
+        qdd[U[a]] = x[a]
+    F = M @ qdd - rhs
+    if m:
+        F += C.T @ lam
+    pd = 0.0
+    for k in range(P.shape[0]):
+        pd += F[P[k]] * v[P[k]]
+    return pd, -pnc
+
+
+@njit(cache=True)
+def step(q0, v0, qdd0, a0, lam0, h, qP, vP, aP, factor, par, unit, U, P, S, sinfo,
+         kin, mass, K, D, g, w, frc):
+    """One step of size h from (q0, v0, qdd0, a0, lam0) (index3.Index3Stepper.step).
+
+    ``S`` (nU, nU) is the scaled iteration matrix, refreshed in place; ``sinfo`` = [h of S,
+    stale flag, Jacobians, evaluations] is updated in place. Returns (status, q, v, qdd, a,
+    lam, iterations, largest correction, closure residual, driver power, -dissipated
+    power); status 0 converged, 1 Newton failed, 2 jump (another branch), 3 non-finite.
+    """
+    am, af, beta, gamma = par[0], par[1], par[2], par[3]
+    rtol, atol, ctol, jump, eps = par[4], par[5], par[6], par[7], par[8]
+    bp = (1.0 - am) / (beta * h * h * (1.0 - af))
+    gp = gamma / (beta * h)
+    nU, m = U.shape[0], w.shape[0]
+    qdd = qdd0.copy()
+    for k in range(P.shape[0]):
+        qdd[P[k]] = aP[k]
+    a1 = (af * qdd0 - am * a0 + (1.0 - af) * qdd) / (1.0 - am)
+    q = q0 + h * v0 + h * h * ((0.5 - beta) * a0 + beta * a1)
+    v = v0 + h * ((1.0 - gamma) * a0 + gamma * a1)
+    for k in range(P.shape[0]):
+        q[P[k]] = qP[k]
+        v[P[k]] = vP[k]
+    qpred = q.copy()
+    lam = lam0.copy()
+    tol = np.empty(nU)
+    for k in range(nU):
+        tol[k] = atol * unit[U[k]] + rtol * abs(q[U[k]])
+    refreshed = False
+    prev = 0.0
+    cerr = np.inf
+    moved = 0.0
+    M, rhs, Qnc, c, C, gw = terms(q, v, factor, kin, mass, K, D, g, w, frc)
+    for it in range(MAX_NEWTON):
+        if it:
+            M, rhs, Qnc, c, C, gw = terms(q, v, factor, kin, mass, K, D, g, w, frc)
+        sinfo[3] += 1.0
+        G = _residual_U(M, rhs, C, qdd, lam, U)
+        cerr = 0.0
+        for i in range(m):
+            cerr = max(cerr, abs(c[i]))
+        if not (np.all(np.isfinite(G)) and np.isfinite(cerr)):
+            return 3, q, v, qdd, a1, lam, it, moved, cerr, 0.0, 0.0
+        ratio = h / sinfo[0] if sinfo[0] > 0 else 0.0
+        if sinfo[0] <= 0 or ratio < 0.5 or ratio > 2.0 or sinfo[1] > 0 or \
+                (it == REFRESH_AFTER and not refreshed):
+            for kk in range(nU):  # forward differences along the Newton direction
+                i = U[kk]
+                d = 1e-7 * max(unit[i], abs(q[i]))
+                qq, vv, aa = q.copy(), v.copy(), qdd.copy()
+                qq[i] += d
+                vv[i] += gp * d
+                aa[i] += bp * d
+                M2, rhs2, _, _, C2, _ = terms(qq, vv, factor, kin, mass, K, D, g, w, frc)
+                G2 = _residual_U(M2, rhs2, C2, aa, lam, U)
+                for r in range(nU):
+                    S[r, kk] = (G2[r] - G[r]) / (d * bp)
+            sinfo[0], sinfo[1] = h, 0.0
+            sinfo[2] += 1.0
+            sinfo[3] += nU
+            refreshed = True
+        CU = np.empty((m, nU))
+        for i in range(m):
+            for kk in range(nU):
+                CU[i, kk] = C[i, U[kk]]
+        x, dl = _saddle(S, CU, -G / bp, -c, eps, 0)
+        if not np.all(np.isfinite(x)):
+            return 1, q, v, qdd, a1, lam, it + 1, moved, cerr, 0.0, 0.0
+        moved = 0.0
+        for kk in range(nU):
+            i = U[kk]
+            q[i] += x[kk]
+            v[i] += gp * x[kk]
+            qdd[i] += bp * x[kk]
+            moved = max(moved, abs(q[i] - qpred[i]) / unit[i])
+        lam += bp * dl
+        if moved > jump:
+            return 2, q, v, qdd, a1, lam, it + 1, moved, cerr, 0.0, 0.0
+        norm, user = 0.0, 0.0
+        for kk in range(nU):
+            i = U[kk]
+            eloc = abs((beta - 1.0 / 6.0) * h * h * (qdd[i] - qdd0[i]))
+            tl = min(tol[kk], max(0.01 * eloc, 1e-14 * (abs(q[i]) + unit[i])))
+            norm = max(norm, abs(x[kk]) / tl)
+            user = max(user, abs(x[kk]) / tol[kk])
+        theta = norm / prev if prev > 0 else 0.0
+        if theta >= 1.0 and it >= 2 and not refreshed:
+            sinfo[1] = 1.0
+        left = norm * theta / (1.0 - theta) if 0.0 < theta < 1.0 else norm
+        prev = norm
+        enough = it >= REFRESH_AFTER and user <= 1.0
+        if (left <= 1.0 or norm <= 1e-3 or enough) and cerr <= ctol:
+            if it >= REFRESH_AFTER:
+                sinfo[1] = 1.0
+            a_new = a1 + (1.0 - af) / (1.0 - am) * (qdd - qdd0)
+            for k in range(P.shape[0]):
+                a_new[P[k]] = aP[k]
+            pd, pnc = _powers(M, rhs, Qnc, C, gw, v, aP, U, P, eps)
+            return 0, q, v, qdd, a_new, lam, it + 1, moved, cerr, pd, pnc
+    sinfo[1] = 1.0
+    return 1, q, v, qdd, a1, lam, MAX_NEWTON, moved, cerr, 0.0, 0.0
+
+
+@njit(cache=True)
+def march(q, v, qdd, a, lam, t0, h, qP, vP, aP, factors, work, powers, par, unit, U, P, S,
+          sinfo, kin, mass, K, D, g, w, frc):
+    """Steps of size h from t0 while the tables last (qP, vP, aP: (k, p) driver values,
+    factors (k, F) force histories at t0 + (j + 1) h). The state arrays, ``work`` (driver
+    work, dissipated energy) and ``powers`` (their rates at the state) advance in place.
+    Returns (steps done, status of the failed step or 0, the state before the last step
+    (q, v, work), Newton iterations in all)."""
+    qprev, vprev, wprev = q.copy(), v.copy(), work.copy()
+    iters = 0
+    for j in range(qP.shape[0]):
+        st, q1, v1, qdd1, a1, lam1, it, _, _, pd, pnc = step(
+            q, v, qdd, a, lam, h, qP[j], vP[j], aP[j], factors[j], par, unit, U, P, S, sinfo,
+            kin, mass, K, D, g, w, frc)
+        iters += it
+        if st != 0:
+            return j, st, qprev, vprev, wprev, iters
+        qprev[:], vprev[:], wprev[:] = q, v, work
+        work[0] += 0.5 * h * (powers[0] + pd)
+        work[1] += 0.5 * h * (powers[1] + pnc)
+        powers[0], powers[1] = pd, pnc
+        q[:], v[:], qdd[:], a[:], lam[:] = q1, v1, qdd1, a1, lam1
+    return qP.shape[0], 0, qprev, vprev, wprev, iters
+
+
+@njit(cache=True)
+def _gravity_potential(q, A, g, mass):
+    """V = -sum_b g . (first moment of body b in ground) (J(eta)[:, 3] per body), J."""
+    link, n_modes, idx, C, Cp, Cpp = mass
+    V = 0.0
+    col = np.empty(4)
+    for b in range(link.shape[0]):
+        for k in range(4):
+            col[k] = C[b, k, 3]
+        for a in range(n_modes[b]):
+            ea = q[idx[b, a]]
+            for k in range(4):
+                col[k] += ea * (Cp[b, a, k, 3] + Cp[b, a, 3, k])
+            for c in range(n_modes[b]):
+                ec = q[idx[b, c]]
+                for k in range(4):
+                    col[k] += ea * ec * Cpp[b, a, c, k, 3]
+        Al = A[link[b]]
+        for r in range(4):
+            s = 0.0
+            for k in range(4):
+                s += Al[r, k] * col[k]
+            V -= g[r] * s
+    return V
+
+
+@njit(cache=True)
+def _force_potential(q, A, dA, frc):
+    """Potential energy (J) of the conservative compiled force elements."""
+    fkind, fint, fpar, fcons, mlink, mc0, mca, midx, mnm = frc
+    n = q.shape[0]
+    V = 0.0
+    p, pb = np.zeros(3), np.zeros(3)
+    dp = np.zeros((n, 3))
+    for e in range(fkind.shape[0]):
+        kind = fkind[e]
+        if kind == 0:
+            x = q[fint[e, 0]] - fpar[e, 1]
+            V += 0.5 * fpar[e, 0] * x * x
+        elif kind == 1 and fcons[e]:
+            V -= fpar[e, 3] * q[fint[e, 0]]
+        elif kind == 2:
+            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, p, dp)
+            _marker_point(fint[e, 1], q, A, dA, mlink, mc0, mca, midx, mnm, pb, dp)
+            x = np.sqrt(np.sum((pb - p) ** 2)) - fpar[e, 1]
+            V += fpar[e, 3] * x + 0.5 * fpar[e, 0] * x * x
+        elif kind == 3 and fcons[e]:
+            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, p, dp)
+            V -= fpar[e, 3] * p[0] + fpar[e, 4] * p[1] + fpar[e, 5] * p[2]
+    return V
+
+
+@njit(cache=True)
+def _sub(C, cols):
+    out = np.empty((C.shape[0], cols.shape[0]))
+    for i in range(C.shape[0]):
+        for k in range(cols.shape[0]):
+            out[i, k] = C[i, cols[k]]
+    return out
+
+
+@njit(cache=True)
+def output(q, v, qP, vP, aP, factor, U, P, rank_rtol, kin, mass, K, D, g, w, frc):
+    """The consistent state reported at an output time (module ``outputs``): q and v moved
+    onto the constraints by least-norm changes of U, the index-1 accelerations and the
+    minimum-norm multipliers there (null-space solve on the SVD of C_U), the driver forces
+    and the energies (kinetic, gravity, elastic, force elements), the largest closure
+    residual (m, rad)."""
+    q, v = q.copy(), v.copy()
+    for k in range(P.shape[0]):
+        q[P[k]] = qP[k]
+        v[P[k]] = vP[k]
+    m = w.shape[0]
+    if m:
+        for _ in range(8):
+            A, dA, _, _, r, J, _ = _kinematics(q, v, False, *kin)
+            c = w * r
+            if np.max(np.abs(c)) <= 1e-12:
+                break
+            CU = _sub(w.reshape(-1, 1) * J, U)
+            dq = np.linalg.lstsq(CU, c, rank_rtol)[0]
+            for k in range(U.shape[0]):
+                q[U[k]] -= dq[k]
+        C = w.reshape(-1, 1) * J  # J at the (now closed) q: the loop broke right after it
+        CV = C @ v
+        if np.max(np.abs(CV)) > 0.0:
+            dv = np.linalg.lstsq(_sub(C, U), CV, rank_rtol)[0]
+            for k in range(U.shape[0]):
+                v[U[k]] -= dv[k]
+    M, rhs, _, c, C, gw, A, dA, r = _terms(q, v, factor, kin, mass, K, D, g, w, frc)
+    n, nU = q.shape[0], U.shape[0]
+    qdd = np.zeros(n)
+    for k in range(P.shape[0]):
+        qdd[P[k]] = aP[k]
+    Mq = M @ qdd
+    f = np.empty(nU)
+    MUU = np.empty((nU, nU))
+    for a in range(nU):
+        f[a] = rhs[U[a]] - Mq[U[a]]
+        for b in range(nU):
+            MUU[a, b] = M[U[a], U[b]]
+    lam = np.zeros(m)
+    if m:
+        CU = _sub(C, U)
+        gg = gw - C @ qdd
+        Us, s, Vt = np.linalg.svd(CU)
+        rk = 0
+        for i in range(s.shape[0]):
+            if s[i] > rank_rtol * s[0]:
+                rk += 1
+        Vr = np.ascontiguousarray(Vt[:rk].T)
+        Z = np.ascontiguousarray(Vt[rk:].T)
+        Ur = np.ascontiguousarray(Us[:, :rk])
+        Urt = np.ascontiguousarray(Ur.T)
+        sr = s[:rk].copy()
+        x = Vr @ ((Urt @ gg) / sr)
+        if Z.shape[1]:
+            Zt = np.ascontiguousarray(Z.T)
+            y = np.linalg.solve(Zt @ MUU @ Z, Zt @ (f - MUU @ x))
+            x = x + Z @ y
+        lam = Ur @ ((np.ascontiguousarray(Vr.T) @ (f - MUU @ x)) / sr)
+    else:
+        x = np.linalg.solve(MUU, f)
+    for a in range(nU):
+        qdd[U[a]] = x[a]
+    F = M @ qdd - rhs
+    if m:
+        F += C.T @ lam
+    FP = np.empty(P.shape[0])
+    for k in range(P.shape[0]):
+        FP[k] = F[P[k]]
+    e = np.empty(4)
+    e[0] = 0.5 * v @ (M @ v)
+    e[1] = _gravity_potential(q, A, g, mass)
+    e[2] = 0.5 * q @ (K @ q)
+    e[3] = _force_potential(q, A, dA, frc)
+    res = 0.0
+    for i in range(m):
+        res = max(res, abs(r[i]))
+    return q, v, qdd, lam, FP, e, res

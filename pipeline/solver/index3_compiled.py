@@ -1,0 +1,114 @@
+"""The index-3 generalised-alpha step as compiled calls (:mod:`pipeline.solver.dae_kernels`),
+with the interface of the numpy reference :class:`~pipeline.solver.index3.Index3Stepper`.
+
+:func:`stepper` returns a :class:`CompiledStepper` when every force element of the system has
+a compiled form (:mod:`pipeline.solver.dae_data`), else the numpy stepper. Drivers and force
+histories are Python objects: they are evaluated here, once per step, and handed to the
+kernel as numbers. :meth:`CompiledStepper.march` runs a stretch of fixed steps in one call
+(the driver values of every step tabulated first).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pipeline.kinematics.partition import RANK_RTOL
+from pipeline.solver import dae_kernels as K
+from pipeline.solver.constrained import ConstrainedSystem
+from pipeline.solver.dae_data import CompiledDae, compile_dae, force_factors
+from pipeline.solver.generalized_alpha import coefficients
+from pipeline.solver.index3 import Index3Stepper, StepOutcome, StepState, powers
+
+__all__ = ["CompiledStepper", "stepper"]
+
+_WHY = {1: "newton", 2: "jump", 3: "evaluation"}
+
+
+class CompiledStepper:
+    """Same parameters and behaviour as :class:`Index3Stepper` (module docstring)."""
+
+    def __init__(self, cs: ConstrainedSystem, data: CompiledDae, rho_inf=0.8,
+                 newton_rtol=1e-8, newton_atol=1e-10, closure_tol=1e-10, unit=None, jump=0.1,
+                 eps=1e-10):
+        self.cs, self.data = cs, data
+        self.am, self.af, self.beta, self.gamma = coefficients(rho_inf)
+        self.par = np.array([self.am, self.af, self.beta, self.gamma, newton_rtol, newton_atol,
+                             closure_tol, jump, eps])
+        self.unit = data.unit if unit is None else np.asarray(unit, dtype=float)
+        self.S = np.zeros((cs.U.size, cs.U.size))
+        self.sinfo = np.zeros(4)  # h of S (0: none), stale, Jacobians, evaluations
+        self.args = (K.kin_tuple(data.kin), K.mass_tuple(data.masses), data.K, data.D,
+                     data.gravity4, data.w,
+                     (data.fkind, data.fint, data.fpar, data.fcons, data.mlink, data.mc0,
+                      data.mca, data.midx, data.mnm))
+
+    @property
+    def evaluations(self) -> int:
+        return int(self.sinfo[3])
+
+    @property
+    def jacobians(self) -> int:
+        return int(self.sinfo[2])
+
+    def start(self, t: float, q: np.ndarray, v: np.ndarray) -> StepState:
+        cs = self.cs
+        st = cs.evaluate(t, q, v)
+        self.sinfo[3] += 1
+        qdd, lam = cs.accelerations(st)
+        return StepState(t, q.copy(), v.copy(), qdd, qdd.copy(), lam, powers(cs, st, v))
+
+    def reset(self):
+        self.sinfo[0] = 0.0
+
+    def _factors(self, times) -> np.ndarray:
+        return force_factors(self.data, times)
+
+    def step(self, s0: StepState, h: float) -> StepOutcome:
+        cs = self.cs
+        t1 = s0.t + h
+        qP, vP, aP = cs.drive(t1)
+        out = K.step(s0.q, s0.v, s0.qdd, s0.a, s0.lam, float(h), qP, vP, aP,
+                     self._factors([t1])[0], self.par, self.unit, cs.U, cs.P, self.S,
+                     self.sinfo, *self.args)
+        status, q, v, qdd, a, lam, it, moved, cerr, pd, pnc = out
+        if status:
+            return StepOutcome(None, int(it), _WHY[int(status)], float(moved), float(cerr))
+        return StepOutcome(StepState(t1, q, v, qdd, a, lam, np.array([pd, pnc])), int(it), "",
+                           float(moved), float(cerr))
+
+    def march(self, s0: StepState, h: float, count: int, work: np.ndarray):
+        """``count`` steps of size h from s0 in one call: (steps done, failure or "",
+        (t, q, v, work) before the last step done, the last state, work at it)."""
+        cs = self.cs
+        times = s0.t + h * np.arange(1, count + 1)
+        qP, vP, aP = cs.drive_table(times)
+        q, v, qdd, a, lam = (x.copy() for x in (s0.q, s0.v, s0.qdd, s0.a, s0.lam))
+        w, p = np.array(work, dtype=float), np.array(s0.powers, dtype=float)
+        done, status, qprev, vprev, wprev, _ = K.march(
+            q, v, qdd, a, lam, s0.t, float(h), qP, vP, aP, self._factors(times), w, p,
+            self.par, self.unit, cs.U, cs.P, self.S, self.sinfo, *self.args)
+        done = int(done)
+        t = s0.t + h * done
+        last = StepState(t, q, v, qdd, a, lam, p)
+        before = (t - h, qprev, vprev, wprev)
+        return done, _WHY.get(int(status), ""), before, last, w
+
+
+    def output(self, t: float, q: np.ndarray, v: np.ndarray):
+        """(q, v, qdd, lam, driver forces, energies dict, closure residual) reported at t
+        (outputs.OutputGrid.record, compiled)."""
+        cs = self.cs
+        qP, vP, aP = cs.drive(t)
+        q, v, qdd, lam, F, e, res = K.output(q, v, qP, vP, aP, self._factors([t])[0], cs.U,
+                                             cs.P, RANK_RTOL, *self.args)
+        names = ("kinetic", "gravity", "elastic", "forces")
+        return q, v, qdd, lam, F, {k: float(x) for k, x in zip(names, e)}, float(res)
+
+
+def stepper(cs: ConstrainedSystem, **kw):
+    """A compiled stepper for ``cs`` when its force elements allow one, else the numpy
+    :class:`Index3Stepper` (same interface)."""
+    data = compile_dae(cs.system, cs.U, cs.P)
+    if data is None:
+        return Index3Stepper(cs, **kw)
+    return CompiledStepper(cs, data, **kw)
