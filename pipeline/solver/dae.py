@@ -56,8 +56,7 @@ def run_dae(system, q0, qd0, t0, t1, te, *, rtol, atol, step=None, rho_inf=0.8,
     stats = {"rejected": run.rejected, "h_min": run.hmin if run.steps else 0.0,
              "h_max": run.hmax, "evaluations": stepper.evaluations,
              "jacobians": stepper.jacobians}
-    return grid.result(msg, run.steps, stepper.evaluations, {"integrate": total, "total": total},
-                       "generalized_alpha", stats)
+    return grid.result(msg, run.steps, stepper.evaluations, total, "generalized_alpha", stats)
 
 
 class _Run:

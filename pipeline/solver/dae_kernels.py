@@ -470,3 +470,33 @@ def output(q, v, qP, vP, aP, factor, U, P, rank_rtol, kin, mass, K, D, g, w, frc
     for i in range(m):
         res = max(res, abs(r[i]))
     return q, v, qdd, lam, FP, e, res
+
+
+@njit(cache=True)
+def index1_rhs(q, v, aP, factor, U, P, eps, kin, mass, K, D, g, w, frc):
+    """(q''_U, driver power, -dissipated power) of the index-1 form at (q, v) (drivers
+    already set): M q'' + C^T lambda = rhs, C q'' = gamma by the regularised, refined
+    saddle-point solve (constrained.ConstrainedSystem.accelerations with eps)."""
+    M, rhs, Qnc, _, C, gw = terms(q, v, factor, kin, mass, K, D, g, w, frc)
+    n, nU, m = q.shape[0], U.shape[0], w.shape[0]
+    qdd = np.zeros(n)
+    for k in range(P.shape[0]):
+        qdd[P[k]] = aP[k]
+    Mq = M @ qdd
+    f = np.empty(nU)
+    MUU = np.empty((nU, nU))
+    for a in range(nU):
+        f[a] = rhs[U[a]] - Mq[U[a]]
+        for b in range(nU):
+            MUU[a, b] = M[U[a], U[b]]
+    x, lam = _saddle(MUU, _sub(C, U), f, gw - C @ qdd, eps, 2)
+    for a in range(nU):
+        qdd[U[a]] = x[a]
+    pd = 0.0
+    if P.shape[0]:
+        F = M @ qdd - rhs
+        if m:
+            F += C.T @ lam
+        for k in range(P.shape[0]):
+            pd += F[P[k]] * v[P[k]]
+    return x, pd, -(Qnc @ v)

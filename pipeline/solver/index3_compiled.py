@@ -105,6 +105,14 @@ class CompiledStepper:
         return q, v, qdd, lam, F, {k: float(x) for k, x in zip(names, e)}, float(res)
 
 
+    def index1(self, t: float, q: np.ndarray, v: np.ndarray, eps: float):
+        """(q''_U, driver power, -dissipated power) of the index-1 form at (q, v) (drivers
+        set), compiled (projected._Index1)."""
+        cs = self.cs
+        return K.index1_rhs(q, v, cs.drive(t)[2], self._factors([t])[0], cs.U, cs.P, eps,
+                            *self.args)
+
+
 def stepper(cs: ConstrainedSystem, **kw):
     """A compiled stepper for ``cs`` when its force elements allow one, else the numpy
     :class:`Index3Stepper` (same interface)."""

@@ -10,6 +10,8 @@ are redundant.
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from pipeline.dynamics.energy import energies
@@ -41,6 +43,7 @@ class OutputGrid:
     def __init__(self, cs: ConstrainedSystem, te: np.ndarray, compiled=None):
         self.cs, self.te, self.k = cs, te, 0
         self.rows = []
+        self.seconds = 0.0  # spent recording
         #: ``compiled(t, q, v)`` -> (q, v, qdd, lam, F, energies, residual): the same state
         #: from one compiled call (CompiledStepper.output), or None
         self.compiled = compiled
@@ -69,6 +72,13 @@ class OutputGrid:
 
     def record(self, t, q, v, work):
         """Project (q, v) at t, evaluate and append an output row."""
+        tic = time.perf_counter()
+        try:
+            self._record(t, q, v, work)
+        finally:
+            self.seconds += time.perf_counter() - tic
+
+    def _record(self, t, q, v, work):
         if self.compiled is not None:
             q, v, qdd, lam, F, e, res = self.compiled(t, q, v)
             self._append(t, q, v, qdd, lam, F, e, res, work)
@@ -92,9 +102,11 @@ class OutputGrid:
         self.rows.append((t, q, v, qdd, e, res, F, lam))
         self.k += 1
 
-    def result(self, msg, steps, n_eval, timings, method, stats) -> SimulationResult:
-        """The SimulationResult of the rows recorded (partial when ``msg`` is set)."""
+    def result(self, msg, steps, n_eval, total, method, stats) -> SimulationResult:
+        """The SimulationResult of the rows recorded (partial when ``msg`` is set); total: the
+        run's wall seconds (split into integration and output)."""
         cs, rows = self.cs, self.rows
+        timings = {"integrate": total - self.seconds, "output": self.seconds, "total": total}
         n, k = cs.n, len(rows)
         names = cs.system.mechanism.coordinates
 
