@@ -251,6 +251,11 @@ def _march(solver, rhs, te, y0, progress, out, stepper):
                 y = solver.y
             else:
                 y = solver.dense_output()(tk)
+            if not np.all(np.isfinite(y)):  # the step's interpolation stages failed
+                why = f" ({rhs.last_error})" if rhs.last_error else ""
+                return (f"the partitioned formulation cannot evaluate the state at t = "
+                        f"{tk:.6g} s: the loops cannot be closed there in its coordinates{why};"
+                        " formulation='dae' passes singular positions"), t_out
             _record(rhs, tk, y, out)
             advance(k + 1)
             t_out += time.perf_counter() - s0
