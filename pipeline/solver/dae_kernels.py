@@ -139,6 +139,54 @@ def _residual_U(M, rhs, C, qdd, lam, U):
 
 
 @njit(cache=True)
+def _lu(A):
+    """In-place LU with partial pivoting of a small dense matrix: (LU, pivots); raises
+    ZeroDivisionError on an exactly singular pivot. (For the few-dozen unknowns of a step,
+    cheaper than a LAPACK call's copies and checks.)"""
+    n = A.shape[0]
+    piv = np.arange(n)
+    for k in range(n):
+        p = k
+        big = abs(A[k, k])
+        for i in range(k + 1, n):
+            if abs(A[i, k]) > big:
+                big, p = abs(A[i, k]), i
+        if big == 0.0:
+            raise ZeroDivisionError("singular iteration matrix")
+        if p != k:
+            for j in range(n):
+                A[k, j], A[p, j] = A[p, j], A[k, j]
+            piv[k], piv[p] = piv[p], piv[k]
+        inv = 1.0 / A[k, k]
+        for i in range(k + 1, n):
+            A[i, k] *= inv
+            f = A[i, k]
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    A[i, j] -= f * A[k, j]
+    return A, piv
+
+
+@njit(cache=True)
+def _lu_solve(LU, piv, b):
+    n = LU.shape[0]
+    x = np.empty(n)
+    for i in range(n):
+        x[i] = b[piv[i]]
+    for i in range(n):
+        s = x[i]
+        for j in range(i):
+            s -= LU[i, j] * x[j]
+        x[i] = s
+    for i in range(n - 1, -1, -1):
+        s = x[i]
+        for j in range(i + 1, n):
+            s -= LU[i, j] * x[j]
+        x[i] = s / LU[i, i]
+    return x
+
+
+@njit(cache=True)
 def _saddle(S, CU, f, g, eps, refine):
     """(x, lambda) of S x + C^T lambda = f, C x = g by the regularised, refined solve
     (constrained.saddle_solve_regularised)."""
@@ -155,12 +203,13 @@ def _saddle(S, CU, f, g, eps, refine):
     for i in range(m):
         Kr[k + i, k + i] = -eps * s
     b = np.concatenate((f, s * g))
-    z = np.linalg.solve(Kr, b)
+    LU, piv = _lu(Kr.copy())
+    z = _lu_solve(LU, piv, b)
     for _ in range(refine):
         r = b - Kr @ z
         for i in range(m):
             r[k + i] -= eps * s * z[k + i]
-        z = z + np.linalg.solve(Kr, r)
+        z = z + _lu_solve(LU, piv, r)
     return z[:k], s * z[k:]
 
 
@@ -202,9 +251,10 @@ def _powers(M, rhs, Qnc, C, gw, v, qddP, U, P, eps):
 
 
 @njit(cache=True)
-def step(q0, v0, qdd0, a0, lam0, h, qP, vP, aP, factor, par, unit, U, P, S, sinfo,
+def step(q0, v0, qdd0, a0, lam0, qddp, hp, h, qP, vP, aP, factor, par, unit, U, P, S, sinfo,
          kin, mass, K, D, g, w, frc):
-    """One step of size h from (q0, v0, qdd0, a0, lam0) (index3.Index3Stepper.step).
+    """One step of size h from (q0, v0, qdd0, a0, lam0) (index3.Index3Stepper.step); qddp:
+    the accelerations hp seconds before (hp = 0: none) for the linear prediction of q''.
 
     ``S`` (nU, nU) is the scaled iteration matrix, refreshed in place; ``sinfo`` = [h of S,
     stale flag, Jacobians, evaluations] is updated in place. Returns (status, q, v, qdd, a,
@@ -217,8 +267,11 @@ def step(q0, v0, qdd0, a0, lam0, h, qP, vP, aP, factor, par, unit, U, P, S, sinf
     gp = gamma / (beta * h)
     nU, m = U.shape[0], w.shape[0]
     qdd = qdd0.copy()
+    if hp > 0.0:
+        qdd += (h / hp) * (qdd0 - qddp)
     for k in range(P.shape[0]):
         qdd[P[k]] = aP[k]
+    guess = qdd.copy()
     a1 = (af * qdd0 - am * a0 + (1.0 - af) * qdd) / (1.0 - am)
     q = q0 + h * v0 + h * h * ((0.5 - beta) * a0 + beta * a1)
     v = v0 + h * ((1.0 - gamma) * a0 + gamma * a1)
@@ -296,7 +349,7 @@ def step(q0, v0, qdd0, a0, lam0, h, qP, vP, aP, factor, par, unit, U, P, S, sinf
         if (left <= 1.0 or norm <= 1e-3 or enough) and cerr <= ctol:
             if it >= REFRESH_AFTER:
                 sinfo[1] = 1.0
-            a_new = a1 + (1.0 - af) / (1.0 - am) * (qdd - qdd0)
+            a_new = a1 + (1.0 - af) / (1.0 - am) * (qdd - guess)
             for k in range(P.shape[0]):
                 a_new[P[k]] = aP[k]
             pd, pnc = _powers(M, rhs, Qnc, C, gw, v, aP, U, P, eps)
@@ -306,28 +359,31 @@ def step(q0, v0, qdd0, a0, lam0, h, qP, vP, aP, factor, par, unit, U, P, S, sinf
 
 
 @njit(cache=True)
-def march(q, v, qdd, a, lam, t0, h, qP, vP, aP, factors, work, powers, par, unit, U, P, S,
-          sinfo, kin, mass, K, D, g, w, frc):
+def march(q, v, qdd, a, lam, qddp, hp, t0, h, qP, vP, aP, factors, work, powers, par, unit, U,
+          P, S, sinfo, kin, mass, K, D, g, w, frc):
     """Steps of size h from t0 while the tables last (qP, vP, aP: (k, p) driver values,
-    factors (k, F) force histories at t0 + (j + 1) h). The state arrays, ``work`` (driver
-    work, dissipated energy) and ``powers`` (their rates at the state) advance in place.
+    factors (k, F) force histories at t0 + (j + 1) h). The state arrays, ``qddp`` (the
+    accelerations of the state before, hp s earlier), ``work`` (driver work, dissipated
+    energy) and ``powers`` (their rates at the state) advance in place.
     Returns (steps done, status of the failed step or 0, the state before the last step
-    (q, v, work), Newton iterations in all)."""
+    (q, v, work), Newton iterations in all, hp)."""
     qprev, vprev, wprev = q.copy(), v.copy(), work.copy()
     iters = 0
     for j in range(qP.shape[0]):
         st, q1, v1, qdd1, a1, lam1, it, _, _, pd, pnc = step(
-            q, v, qdd, a, lam, h, qP[j], vP[j], aP[j], factors[j], par, unit, U, P, S, sinfo,
-            kin, mass, K, D, g, w, frc)
+            q, v, qdd, a, lam, qddp, hp, h, qP[j], vP[j], aP[j], factors[j], par, unit, U, P,
+            S, sinfo, kin, mass, K, D, g, w, frc)
         iters += it
         if st != 0:
-            return j, st, qprev, vprev, wprev, iters
+            return j, st, qprev, vprev, wprev, iters, hp
         qprev[:], vprev[:], wprev[:] = q, v, work
         work[0] += 0.5 * h * (powers[0] + pd)
         work[1] += 0.5 * h * (powers[1] + pnc)
         powers[0], powers[1] = pd, pnc
+        qddp[:] = qdd
+        hp = h
         q[:], v[:], qdd[:], a[:], lam[:] = q1, v1, qdd1, a1, lam1
-    return qP.shape[0], 0, qprev, vprev, wprev, iters
+    return qP.shape[0], 0, qprev, vprev, wprev, iters, hp
 
 
 @njit(cache=True)
