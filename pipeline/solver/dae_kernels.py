@@ -251,10 +251,9 @@ def _powers(M, rhs, Qnc, C, gw, v, qddP, U, P, eps):
 
 
 @njit(cache=True)
-def step(q0, v0, qdd0, a0, lam0, qddp, hp, h, qP, vP, aP, factor, par, unit, U, P, S, sinfo,
+def step(q0, v0, qdd0, a0, lam0, h, qP, vP, aP, factor, par, unit, U, P, S, sinfo,
          kin, mass, K, D, g, w, frc):
-    """One step of size h from (q0, v0, qdd0, a0, lam0) (index3.Index3Stepper.step); qddp:
-    the accelerations hp seconds before (hp = 0: none) for the linear prediction of q''.
+    """One step of size h from (q0, v0, qdd0, a0, lam0) (index3.Index3Stepper.step).
 
     ``S`` (nU, nU) is the scaled iteration matrix, refreshed in place; ``sinfo`` = [h of S,
     stale flag, Jacobians, evaluations] is updated in place. Returns (status, q, v, qdd, a,
@@ -267,11 +266,8 @@ def step(q0, v0, qdd0, a0, lam0, qddp, hp, h, qP, vP, aP, factor, par, unit, U, 
     gp = gamma / (beta * h)
     nU, m = U.shape[0], w.shape[0]
     qdd = qdd0.copy()
-    if hp > 0.0:
-        qdd += (h / hp) * (qdd0 - qddp)
     for k in range(P.shape[0]):
         qdd[P[k]] = aP[k]
-    guess = qdd.copy()
     a1 = (af * qdd0 - am * a0 + (1.0 - af) * qdd) / (1.0 - am)
     q = q0 + h * v0 + h * h * ((0.5 - beta) * a0 + beta * a1)
     v = v0 + h * ((1.0 - gamma) * a0 + gamma * a1)
@@ -349,7 +345,7 @@ def step(q0, v0, qdd0, a0, lam0, qddp, hp, h, qP, vP, aP, factor, par, unit, U, 
         if (left <= 1.0 or norm <= 1e-3 or enough) and cerr <= ctol:
             if it >= REFRESH_AFTER:
                 sinfo[1] = 1.0
-            a_new = a1 + (1.0 - af) / (1.0 - am) * (qdd - guess)
+            a_new = a1 + (1.0 - af) / (1.0 - am) * (qdd - qdd0)
             for k in range(P.shape[0]):
                 a_new[P[k]] = aP[k]
             pd, pnc = _powers(M, rhs, Qnc, C, gw, v, aP, U, P, eps)
@@ -359,31 +355,28 @@ def step(q0, v0, qdd0, a0, lam0, qddp, hp, h, qP, vP, aP, factor, par, unit, U, 
 
 
 @njit(cache=True)
-def march(q, v, qdd, a, lam, qddp, hp, t0, h, qP, vP, aP, factors, work, powers, par, unit, U,
-          P, S, sinfo, kin, mass, K, D, g, w, frc):
+def march(q, v, qdd, a, lam, t0, h, qP, vP, aP, factors, work, powers, par, unit, U, P, S,
+          sinfo, kin, mass, K, D, g, w, frc):
     """Steps of size h from t0 while the tables last (qP, vP, aP: (k, p) driver values,
-    factors (k, F) force histories at t0 + (j + 1) h). The state arrays, ``qddp`` (the
-    accelerations of the state before, hp s earlier), ``work`` (driver work, dissipated
-    energy) and ``powers`` (their rates at the state) advance in place.
+    factors (k, F) force histories at t0 + (j + 1) h). The state arrays, ``work`` (driver
+    work, dissipated energy) and ``powers`` (their rates at the state) advance in place.
     Returns (steps done, status of the failed step or 0, the state before the last step
-    (q, v, work), Newton iterations in all, hp)."""
+    (q, v, work), Newton iterations in all)."""
     qprev, vprev, wprev = q.copy(), v.copy(), work.copy()
     iters = 0
     for j in range(qP.shape[0]):
         st, q1, v1, qdd1, a1, lam1, it, _, _, pd, pnc = step(
-            q, v, qdd, a, lam, qddp, hp, h, qP[j], vP[j], aP[j], factors[j], par, unit, U, P,
-            S, sinfo, kin, mass, K, D, g, w, frc)
+            q, v, qdd, a, lam, h, qP[j], vP[j], aP[j], factors[j], par, unit, U, P, S, sinfo,
+            kin, mass, K, D, g, w, frc)
         iters += it
         if st != 0:
-            return j, st, qprev, vprev, wprev, iters, hp
+            return j, st, qprev, vprev, wprev, iters
         qprev[:], vprev[:], wprev[:] = q, v, work
         work[0] += 0.5 * h * (powers[0] + pd)
         work[1] += 0.5 * h * (powers[1] + pnc)
         powers[0], powers[1] = pd, pnc
-        qddp[:] = qdd
-        hp = h
         q[:], v[:], qdd[:], a[:], lam[:] = q1, v1, qdd1, a1, lam1
-    return qP.shape[0], 0, qprev, vprev, wprev, iters, hp
+    return qP.shape[0], 0, qprev, vprev, wprev, iters
 
 
 @njit(cache=True)

@@ -9,9 +9,9 @@ multipliers lambda of :class:`~pipeline.solver.constrained.ConstrainedSystem`, t
     M q'' - rhs + C^T lambda = 0,   c(q) = 0          (at t_{n+1}, U coordinates)
 
 (a: the algorithm's acceleration-like variable). Newton on (q_U, lambda) from the prediction
-of q''_{n+1} extrapolated linearly from the last two states (a quarter to a third fewer
-Newton iterations than q''_{n+1} = q''_n): a correction dq moves q by dq, v by gamma' dq and
-q'' by beta' dq
+q''_{n+1} = q''_n: a correction dq moves q by dq, v by gamma' dq and q'' by beta' dq. (A
+linear extrapolation of q'' from the last two states saves a quarter of the iterations but
+lets Newton stop earlier: over 10 s of the parallelogram its error grew 100-fold; not used.)
 (beta' = (1 - alpha_m) / (beta h^2 (1 - alpha_f)), gamma' = gamma / (beta h)). The iteration
 matrix is scaled so that its condition does not grow as h -> 0 (Bottasso, Bauchau & Cardona
 2007): the dynamic rows divided by beta', the multipliers by beta' s (s a mass scale),
@@ -60,7 +60,6 @@ class StepState:
     a: np.ndarray
     lam: np.ndarray
     powers: np.ndarray
-    prev: tuple | None = None  # (t, q'') of the state before, for the prediction
 
 
 @dataclass(frozen=True)
@@ -159,10 +158,7 @@ class Index3Stepper:
         t1 = s0.t + h
         qP, vP, aP = cs.drive(t1)
         qdd = s0.qdd.copy()
-        if s0.prev is not None:  # q'' predicted linearly from the last two states
-            qdd += (h / (s0.t - s0.prev[0])) * (s0.qdd - s0.prev[1])
         qdd[cs.P] = aP
-        guess = qdd.copy()
         a1 = (af * s0.qdd - am * s0.a + (1.0 - af) * qdd) / (1.0 - am)
         q = s0.q + h * s0.v + h * h * ((0.5 - beta) * s0.a + beta * a1)
         v = s0.v + h * ((1.0 - gamma) * s0.a + gamma * a1)
@@ -233,11 +229,11 @@ class Index3Stepper:
             if (left <= 1.0 or norm <= 1e-3 or enough) and closure_err <= self.closure_tol:
                 if it >= self.REFRESH_AFTER:
                     self.stale = True
-                a_new = a1 + (1.0 - af) / (1.0 - am) * (qdd - guess)
+                a_new = a1 + (1.0 - af) / (1.0 - am) * (qdd - s0.qdd)
                 a_new[cs.P] = aP
                 # st: the last evaluation, a correction below the Newton tolerance away
-                return StepOutcome(StepState(t1, q, v, qdd, a_new, lam, powers(cs, st, v),
-                                             (s0.t, s0.qdd)), it + 1, "", moved, closure_err)
+                return StepOutcome(StepState(t1, q, v, qdd, a_new, lam, powers(cs, st, v)),
+                                   it + 1, "", moved, closure_err)
         self.stale = True
         return StepOutcome(None, self.MAX_NEWTON, "newton", 0.0, closure_err)
 

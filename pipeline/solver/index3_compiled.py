@@ -67,15 +67,14 @@ class CompiledStepper:
         cs = self.cs
         t1 = s0.t + h
         qP, vP, aP = cs.drive(t1)
-        qddp, hp = (s0.qdd, 0.0) if s0.prev is None else (s0.prev[1], s0.t - s0.prev[0])
-        out = K.step(s0.q, s0.v, s0.qdd, s0.a, s0.lam, qddp, float(hp), float(h), qP, vP, aP,
+        out = K.step(s0.q, s0.v, s0.qdd, s0.a, s0.lam, float(h), qP, vP, aP,
                      self._factors([t1])[0], self.par, self.unit, cs.U, cs.P, self.S,
                      self.sinfo, *self.args)
         status, q, v, qdd, a, lam, it, moved, cerr, pd, pnc = out
         if status:
             return StepOutcome(None, int(it), _WHY[int(status)], float(moved), float(cerr))
-        return StepOutcome(StepState(t1, q, v, qdd, a, lam, np.array([pd, pnc]),
-                                     (s0.t, s0.qdd)), int(it), "", float(moved), float(cerr))
+        return StepOutcome(StepState(t1, q, v, qdd, a, lam, np.array([pd, pnc])), int(it), "",
+                           float(moved), float(cerr))
 
     def march(self, s0: StepState, h: float, count: int, work: np.ndarray):
         """``count`` steps of size h from s0 in one call: (steps done, failure or "",
@@ -84,16 +83,13 @@ class CompiledStepper:
         times = s0.t + h * np.arange(1, count + 1)
         qP, vP, aP = cs.drive_table(times)
         q, v, qdd, a, lam = (x.copy() for x in (s0.q, s0.v, s0.qdd, s0.a, s0.lam))
-        qddp, hp = (s0.qdd.copy(), 0.0) if s0.prev is None else (s0.prev[1].copy(),
-                                                                 s0.t - s0.prev[0])
         w, p = np.array(work, dtype=float), np.array(s0.powers, dtype=float)
-        done, status, qprev, vprev, wprev, _, hp = K.march(
-            q, v, qdd, a, lam, qddp, float(hp), s0.t, float(h), qP, vP, aP,
-            self._factors(times), w, p, self.par, self.unit, cs.U, cs.P, self.S, self.sinfo,
-            *self.args)
+        done, status, qprev, vprev, wprev, _ = K.march(
+            q, v, qdd, a, lam, s0.t, float(h), qP, vP, aP, self._factors(times), w, p,
+            self.par, self.unit, cs.U, cs.P, self.S, self.sinfo, *self.args)
         done = int(done)
         t = s0.t + h * done
-        last = StepState(t, q, v, qdd, a, lam, p, None if hp <= 0 else (t - hp, qddp))
+        last = StepState(t, q, v, qdd, a, lam, p)
         before = (t - h, qprev, vprev, wprev)
         return done, _WHY.get(int(status), ""), before, last, w
 
