@@ -11,19 +11,22 @@ manifest.
 from __future__ import annotations
 
 import json
+import logging
 import os
 import shutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from pipeline.core.errors import ConfigError
+from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.core.progress import stage
 from pipeline.workflow.analyses import AnalysisResult, run_analysis
 from pipeline.workflow.build import Machine, build_machine
 from pipeline.workflow.link_build import versions
 from pipeline.workflow.load import Workflow, load_workflow
 from pipeline.workflow.series import check_series
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -167,6 +170,7 @@ def run_workflow(workflow: str | Path | Workflow, *, out_root: str | Path = "out
             base = build_machine(wf, cache_dir, rebuild)
         timings["build"] = time.perf_counter() - t0
         check_outputs(wf, base)
+        _warn_redundant(wf, base)
         machines, cache = {"": base}, {}
         tasks = [(a, case) for a in wf.spec.analyses for case in (a.cases or [None])]
         if workers > 1 and len(tasks) > 1:
@@ -196,6 +200,25 @@ def run_workflow(workflow: str | Path | Workflow, *, out_root: str | Path = "out
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return RunResult(wf, final, base, machines, results, manifest)
+
+
+def _warn_redundant(wf: Workflow, m: Machine) -> None:
+    """Name the redundant closure constraints once per run (as ADAMS does at verification):
+    kept by the DAE formulation, their reactions are not unique (minimum-norm ones are
+    reported)."""
+    from pipeline.kinematics import dof_report
+
+    if not m.mechanism.topology.loops:
+        return
+    try:
+        rep = dof_report(m.mechanism, m.q0, list(m.system.drivers))
+    except PipelineError as exc:  # a singular start: the analyses will say so
+        logger.warning("%s: mobility not determined at the start: %s", wf.name, exc)
+        return
+    if rep.redundant:
+        logger.warning("%s: %d redundant closure constraints (kept; their reactions are "
+                       "minimum-norm): %s", wf.name, len(rep.redundant),
+                       ", ".join(rep.redundant))
 
 
 def overall_status(results) -> str:

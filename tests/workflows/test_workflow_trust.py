@@ -80,3 +80,12 @@ def test_validate_build_reports_the_machine(tmp_path):
     assert "DOF 1 = 4 coordinates - 3 independent closure constraints" in text
     assert "redundant constraints (3" in text and "position z" in text
     assert "independent coordinates: ['" in text and "initial energy: kinetic 0 J" in text
+
+
+def test_a_run_names_its_redundant_constraints(tmp_path, caplog):
+    """As ADAMS does at verification: a planar loop built in 3D has three redundant rows."""
+    with caplog.at_level("WARNING", logger="pipeline.workflow.run"):
+        run_workflow(_write(tmp_path, FREE), out_root=tmp_path / "out",
+                     cache_dir=tmp_path / "links")
+    (msg,) = [r.getMessage() for r in caplog.records if "redundant" in r.getMessage()]
+    assert "3 redundant closure constraints" in msg and "position z" in msg
