@@ -214,39 +214,60 @@ def _saddle(S, CU, f, g, eps, refine):
 
 
 @njit(cache=True)
-def _powers(M, rhs, Qnc, C, gw, v, qddP, U, P, eps):
-    """(driver power, -dissipated power) W at a state: the index-1 accelerations and
-    multipliers there (regularised solve), the driver forces F_P = (M q'' - rhs + C^T lam)_P."""
-    n = v.shape[0]
-    pnc = Qnc @ v
-    if P.shape[0] == 0:
-        return 0.0, -pnc
+def _reduced(M, rhs, C, gw, aP, U, P):
+    """The index-1 system on the integrated coordinates U with the driven accelerations aP
+    known: (q'' (n,) with its P entries set, M_UU, f = (rhs - M q'')_U, C_U,
+    g = gamma - C q'')."""
+    n, nU, m = M.shape[0], U.shape[0], C.shape[0]
     qdd = np.zeros(n)
     for k in range(P.shape[0]):
-        qdd[P[k]] = qddP[k]
-    nU = U.shape[0]
-    MUU = np.empty((nU, nU))
-    f = np.empty(nU)
+        qdd[P[k]] = aP[k]
     Mq = M @ qdd
+    f = np.empty(nU)
+    MUU = np.empty((nU, nU))
     for a in range(nU):
         f[a] = rhs[U[a]] - Mq[U[a]]
         for b in range(nU):
             MUU[a, b] = M[U[a], U[b]]
-    m = C.shape[0]
-    CU = np.empty((m, nU))
-    g = gw - C @ qdd
-    for i in range(m):
-        for b in range(nU):
-            CU[i, b] = C[i, U[b]]
+    g = gw - C @ qdd if m else np.zeros(0)
+    return qdd, MUU, f, _sub(C, U), g
+
+
+@njit(cache=True)
+def _index1(M, rhs, C, gw, aP, U, P, eps):
+    """(q'' (n,), lambda (m,)) of the index-1 system by the regularised, refined solve
+    (constrained.ConstrainedSystem.accelerations with eps)."""
+    qdd, MUU, f, CU, g = _reduced(M, rhs, C, gw, aP, U, P)
     x, lam = _saddle(MUU, CU, f, g, eps, 2)
-    for a in range(nU):
+    for a in range(U.shape[0]):
         qdd[U[a]] = x[a]
+    return qdd, lam
+
+
+@njit(cache=True)
+def _driver_forces(M, rhs, C, qdd, lam, P):
+    """(p,) the drivers' generalized forces (M q'' - rhs + C^T lambda)_P."""
     F = M @ qdd - rhs
-    if m:
+    if C.shape[0]:
         F += C.T @ lam
+    FP = np.empty(P.shape[0])
+    for k in range(P.shape[0]):
+        FP[k] = F[P[k]]
+    return FP
+
+
+@njit(cache=True)
+def _powers(M, rhs, Qnc, C, gw, v, aP, U, P, eps):
+    """(driver power, -dissipated power) W at a state, the driver forces from the index-1
+    accelerations and multipliers there."""
+    pnc = Qnc @ v
+    if P.shape[0] == 0:
+        return 0.0, -pnc
+    qdd, lam = _index1(M, rhs, C, gw, aP, U, P, eps)
+    FP = _driver_forces(M, rhs, C, qdd, lam, P)
     pd = 0.0
     for k in range(P.shape[0]):
-        pd += F[P[k]] * v[P[k]]
+        pd += FP[k] * v[P[k]]
     return pd, -pnc
 
 
@@ -469,21 +490,10 @@ def output(q, v, qP, vP, aP, factor, U, P, rank_rtol, kin, mass, K, D, g, w, frc
             for k in range(U.shape[0]):
                 v[U[k]] -= dv[k]
     M, rhs, _, c, C, gw, A, dA, r = _terms(q, v, factor, kin, mass, K, D, g, w, frc)
-    n, nU = q.shape[0], U.shape[0]
-    qdd = np.zeros(n)
-    for k in range(P.shape[0]):
-        qdd[P[k]] = aP[k]
-    Mq = M @ qdd
-    f = np.empty(nU)
-    MUU = np.empty((nU, nU))
-    for a in range(nU):
-        f[a] = rhs[U[a]] - Mq[U[a]]
-        for b in range(nU):
-            MUU[a, b] = M[U[a], U[b]]
+    nU = U.shape[0]
+    qdd, MUU, f, CU, gg = _reduced(M, rhs, C, gw, aP, U, P)
     lam = np.zeros(m)
     if m:
-        CU = _sub(C, U)
-        gg = gw - C @ qdd
         Us, s, Vt = np.linalg.svd(CU)
         rk = 0
         for i in range(s.shape[0]):
@@ -504,12 +514,7 @@ def output(q, v, qP, vP, aP, factor, U, P, rank_rtol, kin, mass, K, D, g, w, frc
         x = np.linalg.solve(MUU, f)
     for a in range(nU):
         qdd[U[a]] = x[a]
-    F = M @ qdd - rhs
-    if m:
-        F += C.T @ lam
-    FP = np.empty(P.shape[0])
-    for k in range(P.shape[0]):
-        FP[k] = F[P[k]]
+    FP = _driver_forces(M, rhs, C, qdd, lam, P)
     e = np.empty(4)
     e[0] = 0.5 * v @ (M @ v)
     e[1] = _gravity_potential(q, A, g, mass)
@@ -527,25 +532,13 @@ def index1_rhs(q, v, aP, factor, U, P, eps, kin, mass, K, D, g, w, frc):
     already set): M q'' + C^T lambda = rhs, C q'' = gamma by the regularised, refined
     saddle-point solve (constrained.ConstrainedSystem.accelerations with eps)."""
     M, rhs, Qnc, _, C, gw = terms(q, v, factor, kin, mass, K, D, g, w, frc)
-    n, nU, m = q.shape[0], U.shape[0], w.shape[0]
-    qdd = np.zeros(n)
-    for k in range(P.shape[0]):
-        qdd[P[k]] = aP[k]
-    Mq = M @ qdd
-    f = np.empty(nU)
-    MUU = np.empty((nU, nU))
-    for a in range(nU):
-        f[a] = rhs[U[a]] - Mq[U[a]]
-        for b in range(nU):
-            MUU[a, b] = M[U[a], U[b]]
-    x, lam = _saddle(MUU, _sub(C, U), f, gw - C @ qdd, eps, 2)
-    for a in range(nU):
-        qdd[U[a]] = x[a]
+    qdd, lam = _index1(M, rhs, C, gw, aP, U, P, eps)
     pd = 0.0
     if P.shape[0]:
-        F = M @ qdd - rhs
-        if m:
-            F += C.T @ lam
+        FP = _driver_forces(M, rhs, C, qdd, lam, P)
         for k in range(P.shape[0]):
-            pd += F[P[k]] * v[P[k]]
+            pd += FP[k] * v[P[k]]
+    x = np.empty(U.shape[0])
+    for a in range(U.shape[0]):
+        x[a] = qdd[U[a]]
     return x, pd, -(Qnc @ v)
