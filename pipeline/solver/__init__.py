@@ -2,14 +2,15 @@
 
 Two formulations of closed loops (``formulation``):
 
-* ``"dae"`` (default when the mechanism has loops): every coordinate (joint and modal) with
+* ``"dae"`` (default for closed loops and for ``generalized_alpha``): every coordinate (joint and modal) with
   Lagrange multipliers for every closure row, M q'' + C^T lambda = rhs, c(q) = 0. Redundant
   rows and singular positions need no choice of coordinates; the branch comes from
   continuity of all coordinates. ``generalized_alpha`` integrates it at index 3
   (:mod:`pipeline.solver.index3`; fixed ``step`` or adaptive); the scipy methods integrate its
   index-1 form with coordinate projection after every step (:mod:`pipeline.solver.projected`).
-* ``"partitioned"`` (the seed's method; default for open chains): independent coordinates
-  only, the dependent ones closed by position analysis at every evaluation
+* ``"partitioned"`` (the seed's method; default for open chains with the scipy methods):
+  independent coordinates only, the dependent ones closed by position analysis at every
+  evaluation
   (:mod:`pipeline.solver.integrate`); it needs a regular dependent block, so it stops at a
   singular position and re-selects coordinates near one.
 
@@ -70,8 +71,8 @@ def simulate(system, q0, qd0, t_span, t_eval=None, method: str = "DOP853", rtol:
     step : fixed step, s (``generalized_alpha``; required with the partitioned formulation,
         adaptive in the DAE formulation when None).
     rho_inf : spectral radius at infinite frequency, [0, 1] (``generalized_alpha``).
-    formulation : "auto" (DAE for closed loops, partitioned for open chains), "dae" or
-        "partitioned".
+    formulation : "auto" (DAE for closed loops and for ``generalized_alpha``, partitioned
+        for open chains with the scipy methods), "dae" or "partitioned".
     max_steps, max_wall : budgets (steps; wall-clock seconds); a run that exhausts one stops
         with its partial history.
     limits : thresholds of the trust checks (default :class:`Limits()`).
@@ -112,9 +113,11 @@ def simulate(system, q0, qd0, t_span, t_eval=None, method: str = "DOP853", rtol:
     if max_wall is not None and not (np.isfinite(max_wall) and max_wall > 0):
         raise ConfigError(f"simulate: max_wall: expected seconds > 0, got {max_wall!r}")
     loops = bool(system.mechanism.topology.loops)
-    if formulation == "auto":
-        formulation = "dae" if loops else "partitioned"
     second_order = getattr(cls, "SECOND_ORDER", False)
+    if formulation == "auto":
+        # generalised-alpha on an open chain too: its compiled step is ~20x faster than the
+        # partitioned step with the same states (docs/closed_loops.md, "Speed")
+        formulation = "dae" if loops or second_order else "partitioned"
     if step is not None and not (np.isfinite(step) and step > 0):
         raise ConfigError(f"simulate: step: expected a fixed step > 0 s, got {step!r}")
     if second_order:

@@ -6,7 +6,7 @@ halved after a rejected step) or adaptive from the local error estimate of the p
 e = (beta - 1/6) h^2 (q''_{n+1} - q''_n) (Zienkiewicz & Xie's estimate for Newmark-type
 methods), kept below atol * unit + rtol * |q| in the RMS norm. A step is rejected and retried
 with half its size when Newton fails, a state cannot be evaluated, or Newton converges more
-than ``jump`` away from the prediction (another assembly branch).
+than ``jump`` away from the prediction (another assembly branch; closed loops only).
 
 Outputs: at each requested time between two step ends the positions and velocities are
 interpolated (cubic Hermite), projected onto the constraints (least-norm changes of the
@@ -42,6 +42,8 @@ def run_dae(system, q0, qd0, t0, t1, te, *, rtol, atol, step=None, rho_inf=0.8,
     tic = time.perf_counter()
     cs = ConstrainedSystem(system)
     unit = system.mechanism.coordinate_units
+    if not system.mechanism.topology.loops:
+        jump = np.inf  # no closure, no branch to leave: a stiff mode may move far in a step
     run = _Run(cs, unit, t0, t1, rtol, atol, step, max_step, max_steps, max_wall, tic)
     newton = 1.0 if step else 0.1  # adaptive: Newton error well below the local error
     stepper = make_stepper(cs, rho_inf=rho_inf, newton_rtol=newton * rtol,
