@@ -462,6 +462,20 @@ def _sub(C, cols):
 
 
 @njit(cache=True)
+def _svd_parts(CU, rank_rtol):
+    """(U_r, U_r^T, s_r, V_r, Z) of C_U = U S V^T at rank r (singular values above
+    rank_rtol s_max): V_r U_r^T / s_r is the pseudo-inverse, Z spans the null space."""
+    Us, s, Vt = np.linalg.svd(CU)
+    rk = 0
+    for i in range(s.shape[0]):
+        if s[i] > rank_rtol * s[0]:
+            rk += 1
+    Ur = np.ascontiguousarray(Us[:, :rk])
+    return (Ur, np.ascontiguousarray(Ur.T), s[:rk].copy(), np.ascontiguousarray(Vt[:rk].T),
+            np.ascontiguousarray(Vt[rk:].T))
+
+
+@njit(cache=True)
 def output(q, v, qP, vP, aP, factor, U, P, rank_rtol, kin, mass, K, D, g, w, frc):
     """The consistent state reported at an output time (module ``outputs``): q and v moved
     onto the constraints by least-norm changes of U, the index-1 accelerations and the
@@ -474,19 +488,28 @@ def output(q, v, qP, vP, aP, factor, U, P, rank_rtol, kin, mass, K, D, g, w, frc
         v[P[k]] = vP[k]
     m = w.shape[0]
     if m:
-        for _ in range(8):
-            A, dA, _, _, r, J, _ = _kinematics(q, v, False, *kin)
+        # Newton on the SVD of C_U at the first q (chord steps; refreshed after two): a
+        # step end is closed to the step's tolerance and needs one short correction
+        A, dA, _, _, r, J, _ = _kinematics(q, v, False, *kin)
+        Ur, Urt, sr, Vr, Z = _svd_parts(_sub(w.reshape(-1, 1) * J, U), rank_rtol)
+        moved = 0.0
+        for it in range(10):
             c = w * r
             if np.max(np.abs(c)) <= 1e-12:
                 break
-            CU = _sub(w.reshape(-1, 1) * J, U)
-            dq = np.linalg.lstsq(CU, c, rank_rtol)[0]
+            if it >= 2:
+                Ur, Urt, sr, Vr, Z = _svd_parts(_sub(w.reshape(-1, 1) * J, U), rank_rtol)
+            dq = Vr @ ((Urt @ c) / sr)
             for k in range(U.shape[0]):
                 q[U[k]] -= dq[k]
-        C = w.reshape(-1, 1) * J  # J at the (now closed) q: the loop broke right after it
+            moved = max(moved, np.max(np.abs(dq)))
+            A, dA, _, _, r, J, _ = _kinematics(q, v, False, *kin)
+        C = w.reshape(-1, 1) * J
+        if moved > 1e-9:  # the factors at the closed q (else the first q's differ by less)
+            Ur, Urt, sr, Vr, Z = _svd_parts(_sub(C, U), rank_rtol)
         CV = C @ v
         if np.max(np.abs(CV)) > 0.0:
-            dv = np.linalg.lstsq(_sub(C, U), CV, rank_rtol)[0]
+            dv = Vr @ ((Urt @ CV) / sr)  # least-norm change of v_U
             for k in range(U.shape[0]):
                 v[U[k]] -= dv[k]
     M, rhs, _, c, C, gw, A, dA, r = _terms(q, v, factor, kin, mass, K, D, g, w, frc)
@@ -494,16 +517,6 @@ def output(q, v, qP, vP, aP, factor, U, P, rank_rtol, kin, mass, K, D, g, w, frc
     qdd, MUU, f, CU, gg = _reduced(M, rhs, C, gw, aP, U, P)
     lam = np.zeros(m)
     if m:
-        Us, s, Vt = np.linalg.svd(CU)
-        rk = 0
-        for i in range(s.shape[0]):
-            if s[i] > rank_rtol * s[0]:
-                rk += 1
-        Vr = np.ascontiguousarray(Vt[:rk].T)
-        Z = np.ascontiguousarray(Vt[rk:].T)
-        Ur = np.ascontiguousarray(Us[:, :rk])
-        Urt = np.ascontiguousarray(Ur.T)
-        sr = s[:rk].copy()
         x = Vr @ ((Urt @ gg) / sr)
         if Z.shape[1]:
             Zt = np.ascontiguousarray(Z.T)
