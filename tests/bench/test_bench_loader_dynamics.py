@@ -112,9 +112,11 @@ def test_bench_loader_two_flexible_links(tmp_path):
 
 OUT_GA = OUT.with_name("loader_dynamics_generalized_alpha.json")
 GA_RHO, GA_RTOL, GA_ATOL = 0.8, 1e-6, 1e-8
-#: (step s, output spacing s): outputs on step ends (an output between steps costs an
-#: extra evaluation); 10 ms resolves the lowest closed-loop mode (16 Hz) with 6 steps
-GA_STEPS = ((0.005, 0.01), (0.01, 0.01), (0.02, 0.02))
+#: (step s, output spacing s): 10 ms resolves the lowest closed-loop mode (16 Hz) with 6
+#: steps; 8 ms with outputs every 10 ms (between step ends, interpolated and projected) is
+#: the largest step within the issue's 1e-4 (the error at 10 ms is the 141 Hz ring the
+#: reference keeps and the step filters)
+GA_STEPS = ((0.005, 0.01), (0.008, 0.01), (0.01, 0.01), (0.02, 0.02))
 HEADLINE_STEP = 0.01
 REPEATS = 3  # wall time: best of REPEATS (the machine's speed varies by up to ~40 %)
 REF_END = 2.0  # s of the reference run
