@@ -26,7 +26,6 @@ from pipeline.dynamics.system import BodyMass, System, rigid_C
 __all__ = [
     "FORCES", "BodyMass", "System", "body_from_reduced", "energies", "equation_terms",
     "equations", "in_plane_modes", "joint_reactions", "kinetic_energy", "kinetostatics",
-    "link_from_reduced", "project_on_plane",
-    "linearize", "marker_motion", "modal_damping", "rigid_C", "static_equilibrium",
-    "vibration_modes",
+    "linearize", "link_from_reduced", "marker_motion", "modal_damping", "project_on_plane",
+    "rigid_C", "static_equilibrium", "vibration_modes",
 ]

@@ -514,7 +514,7 @@ def output(q, v, qP, vP, aP, factor, U, P, rank_rtol, kin, mass, K, D, g, w, frc
                 v[U[k]] -= dv[k]
     M, rhs, _, c, C, gw, A, dA, r = _terms(q, v, factor, kin, mass, K, D, g, w, frc)
     nU = U.shape[0]
-    qdd, MUU, f, CU, gg = _reduced(M, rhs, C, gw, aP, U, P)
+    qdd, MUU, f, _, gg = _reduced(M, rhs, C, gw, aP, U, P)
     lam = np.zeros(m)
     if m:
         x = Vr @ ((Urt @ gg) / sr)

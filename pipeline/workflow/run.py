@@ -232,7 +232,7 @@ def _manifest(wf: Workflow, base: Machine, results, timings, status, files) -> d
     for name, rs in results.items():
         analyses[name] = [{"case": r.case, "type": r.type, "success": r.success,
                            "verdict": r.verdict, "message": r.message,
-                           "warnings": list(r.warnings), "outputs": int(len(r.t)),
+                           "warnings": list(r.warnings), "outputs": len(r.t),
                            "seconds": round(r.timings.get("total", 0.0), 3)} for r in rs]
     links = {name: {"artifact": p.reduced.meta.get("input_hash", "")[:12], "cache": p.cache,
                     "modes": list(p.modes),

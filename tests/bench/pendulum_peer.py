@@ -76,12 +76,15 @@ def exudyn_run(model, root, t_end: float, step: float, n_out: int, modes: int = 
     """(CPU s, wall s, tip positions (n_out, 3)) of Exudyn's run; None without Exudyn."""
     try:
         import exudyn as exu
-        from exudyn.FEM import (FEMinterface, HCBstaticModeSelection,
-                                ObjectFFRFreducedOrderInterface)
-        from exudyn.itemInterface import (GenericJoint, MarkerBodyRigid,
-                                          MarkerSuperElementPosition,
-                                          MarkerSuperElementRigid, ObjectGround,
-                                          SensorMarker)
+        from exudyn.FEM import FEMinterface, HCBstaticModeSelection, ObjectFFRFreducedOrderInterface
+        from exudyn.itemInterface import (
+            GenericJoint,
+            MarkerBodyRigid,
+            MarkerSuperElementPosition,
+            MarkerSuperElementRigid,
+            ObjectGround,
+            SensorMarker,
+        )
     except ImportError:
         return None
     # Exudyn expects 3 DOF per node, node-major: renumber the pipeline's P2 DOF to that

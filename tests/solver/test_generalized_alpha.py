@@ -11,14 +11,14 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "dynamics"))
-from eom_models import flexible_double_pendulum, flexible_four_bar  # noqa: E402
+from eom_models import flexible_double_pendulum, flexible_four_bar
 
-from pipeline.core.errors import ConfigError  # noqa: E402
-from pipeline.dynamics import BodyMass, System  # noqa: E402
-from pipeline.dynamics.forces import JointSpringDamper  # noqa: E402
-from pipeline.kinematics import Joint, assemble, build_mechanism, rigid_link  # noqa: E402
-from pipeline.solver import simulate  # noqa: E402
-from pipeline.solver.generalized_alpha import coefficients  # noqa: E402
+from pipeline.core.errors import ConfigError
+from pipeline.dynamics import BodyMass, System
+from pipeline.dynamics.forces import JointSpringDamper
+from pipeline.kinematics import Joint, assemble, build_mechanism, rigid_link
+from pipeline.solver import simulate
+from pipeline.solver.generalized_alpha import coefficients
 
 
 def test_coefficients_match_chung_hulbert():

@@ -60,7 +60,8 @@ def test_a_suspect_run_says_so_in_the_manifest_and_on_the_console(tmp_path):
     (case,) = man["analyses"]["turn"]
     assert case["verdict"] == "suspect" and "energy balance off by" in case["warnings"][0]
     cli = subprocess.run([sys.executable, "-m", "pipeline", "run", str(path), "--out",
-                          str(tmp_path / "out2")], capture_output=True, text=True)
+                          str(tmp_path / "out2")], capture_output=True, text=True,
+                         check=False)
     assert cli.returncode == 1 and "SUSPECT" in cli.stdout and "energy balance" in cli.stdout
     tight = run_workflow(_write(tmp_path, text.replace("    rtol: 1.0e-3\n", "")),
                       out_root=tmp_path / "out3", cache_dir=tmp_path / "links")
@@ -74,7 +75,7 @@ def test_a_suspect_run_says_so_in_the_manifest_and_on_the_console(tmp_path):
 def test_validate_build_reports_the_machine(tmp_path):
     path = _write(tmp_path, FREE)
     out = subprocess.run([sys.executable, "-m", "pipeline", "validate", str(path), "--build"],
-                         capture_output=True, text=True, cwd=tmp_path)
+                         capture_output=True, text=True, cwd=tmp_path, check=False)
     assert out.returncode == 0, out.stderr
     text = out.stdout
     assert "DOF 1 = 4 coordinates - 3 independent closure constraints" in text
