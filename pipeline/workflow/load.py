@@ -16,6 +16,7 @@ from pydantic import ValidationError
 
 from pipeline.core.errors import ConfigError
 from pipeline.core.hashing import content_hash
+from pipeline.workflow.names import file_collision, run_name
 from pipeline.workflow.overrides import apply_overrides, parse_assignment
 from pipeline.workflow.schema import WorkflowSpec
 from pipeline.workflow.yaml_io import PathKey, _fmt, config_error, load_yaml
@@ -122,6 +123,7 @@ def check_references(wf: Workflow) -> None:
     """Names that must exist: one ground, joint frames' links, analyses named by outputs,
     unique names. Coordinates are checked when the machine is built."""
     spec = wf.spec
+    run_name(spec.name, wf.path, wf.where("name"))
     grounds = [k for k, v in spec.links.items() if v.type == "ground"]
     if len(grounds) != 1:
         raise wf.error("links", msg=f"expected exactly one link with type: ground, got {grounds}")
@@ -148,3 +150,8 @@ def check_references(wf: Workflow) -> None:
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise wf.error("outputs", msg=f"duplicate output names {dup} (they name files)")
+    clash = file_collision(spec)
+    if clash:
+        file, first, second = clash
+        raise wf.error(*second, msg=f"would write {file!r}, as {_fmt(first)} does (file names "
+                                    "keep letters, digits, '_', '-' and '.'; rename one)")

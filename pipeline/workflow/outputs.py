@@ -4,7 +4,6 @@ animations and the ParaView series. Returns the relative file names for the mani
 from __future__ import annotations
 
 import csv
-import re
 import time
 from pathlib import Path
 
@@ -12,12 +11,8 @@ import numpy as np
 
 from pipeline.core.errors import ConfigError
 from pipeline.core.progress import stage
+from pipeline.workflow.names import slug
 from pipeline.workflow.series import marker_positions, series
-
-
-def slug(text: str) -> str:
-    """File-name-safe form of a case label ("3 modes" -> "3_modes")."""
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "case"
 
 
 def _stem(r) -> str:
