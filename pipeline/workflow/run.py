@@ -10,6 +10,7 @@ manifest.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import os
@@ -18,12 +19,14 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from pipeline.core.atomic import folder_lock, replace_dir
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.core.progress import stage
 from pipeline.workflow.analyses import AnalysisResult, run_analysis
 from pipeline.workflow.build import Machine, build_machine
 from pipeline.workflow.link_build import versions
 from pipeline.workflow.load import Workflow, load_workflow
+from pipeline.workflow.names import check_run_folder
 from pipeline.workflow.series import check_series
 
 logger = logging.getLogger(__name__)
@@ -123,13 +126,23 @@ def _run_parallel(wf, base, tasks, cache, machines, cache_dir, rebuild, workers,
     return results
 
 
-def _swap_in(tmp: Path, final: Path) -> None:
-    old = final.with_name(f".{final.name}.old-{os.getpid()}")
-    if final.exists():
-        final.rename(old)
-    tmp.rename(final)
-    if old.exists():
-        shutil.rmtree(old, ignore_errors=True)
+def _remove_stale(out_root: Path, name: str) -> None:
+    """Temporaries of earlier runs of this workflow that were killed (the caller holds the
+    workflow's lock, so no live run owns one)."""
+    for pattern in (f".{name}.partial-*", f".{name}.old-*"):
+        for p in out_root.glob(pattern):
+            logger.info("removing %s, left by an interrupted run", p)
+            shutil.rmtree(p, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def _workflow_lock(out_root: Path, name: str):
+    try:
+        with folder_lock(out_root, name):
+            yield
+    except BlockingIOError:
+        raise ConfigError(f"{out_root / name}: another run of workflow {name!r} is writing "
+                          "it; wait for that run to finish") from None
 
 
 def run_workflow(workflow: str | Path | Workflow, *, out_root: str | Path = "output",
@@ -152,18 +165,26 @@ def run_workflow(workflow: str | Path | Workflow, *, out_root: str | Path = "out
     ConfigError
         Bad workflow (file:line: path: what was expected); nothing is written then.
     """
-    from pipeline.workflow.outputs import write_outputs
-
     wf = workflow if isinstance(workflow, Workflow) else load_workflow(workflow, sets, quick)
     out_root = Path(out_root)
     cache_dir = Path(cache_dir) if cache_dir is not None else out_root / "links"
     final = out_root / wf.name
+    check_run_folder(final, cache_dir)
     tmp = out_root / f".{wf.name}.partial-{os.getpid()}"
     timings: dict[str, float] = {}
     t_start = time.perf_counter()
+    with _workflow_lock(out_root, wf.name):
+        _remove_stale(out_root, wf.name)
+        return _run_locked(wf, cache_dir, final, tmp, rebuild, outputs, workers, timings,
+                           t_start)
+
+
+def _run_locked(wf, cache_dir, final, tmp, rebuild, outputs, workers, timings,
+                t_start) -> RunResult:
+    """The run proper, under the workflow's lock: into ``tmp``, then swapped in."""
+    from pipeline.workflow.outputs import write_outputs
+
     try:
-        if tmp.exists():
-            shutil.rmtree(tmp)
         tmp.mkdir(parents=True)
         t0 = time.perf_counter()
         with stage(f"{wf.name}: build machine"):
@@ -194,8 +215,7 @@ def run_workflow(workflow: str | Path | Workflow, *, out_root: str | Path = "out
         timings["total"] = time.perf_counter() - t_start
         manifest = _manifest(wf, base, results, timings, status, files)
         (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, default=str))
-        final.parent.mkdir(parents=True, exist_ok=True)
-        _swap_in(tmp, final)
+        replace_dir(tmp, final)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
