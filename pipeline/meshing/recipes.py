@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from pipeline.core.errors import ConfigError, MeshError
+from pipeline.meshing.geo_scan import check_geo_script
 from pipeline.meshing.geometry import (
     check_keys,
     check_plate_bores,
@@ -181,13 +182,17 @@ def box_section(gmsh, params: Mapping[str, Any], path: Path | None, where: str) 
 
 
 def geo_file(gmsh, params: Mapping[str, Any], path: Path | None, where: str) -> Groups:
-    """Load a gmsh ``.geo`` script; its named physical groups become the groups.
+    """Load a gmsh ``.geo`` script; its named physical groups become the groups. Scripts
+    that run programs, read other scripts, write files or exit are refused
+    (:func:`pipeline.meshing.geo_scan.check_geo_script`).
 
     No parameters. Use ``SetFactory("OpenCASCADE")`` in the file to get the
     exact CAD mass properties in ``MeshData.cad``.
     """
     check_keys(params, where)
-    gmsh.merge(str(_existing(path, where, (".geo",))))
+    path = _existing(path, where, (".geo",))
+    check_geo_script(path, where)
+    gmsh.merge(str(path))
     return {}
 
 
