@@ -20,51 +20,111 @@ from pipeline.core.errors import ConfigError
 PathKey = tuple[str | int, ...]
 _FLOAT_12 = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)")
 
+#: limits of one YAML file: workflows and link specs are small; tables belong in CSV files
+MAX_BYTES = 8 * 1024 * 1024
+MAX_NODES = 200_000  # values after alias expansion (an alias bomb expands to billions)
+MAX_DEPTH = 64
+_T = "tag:yaml.org,2002:"
+#: the tags of plain YAML data (a timestamp is kept as its text)
+SAFE_SCALARS = {f"{_T}{t}" for t in ("str", "int", "float", "bool", "null", "timestamp")}
 
-def _walk(node: yaml.Node, path: PathKey, lines: dict[PathKey, int], source: str) -> Any:
-    lines[path] = node.start_mark.line + 1
-    if isinstance(node, yaml.MappingNode):
-        out: dict[str, Any] = {}
-        for key_node, value_node in node.value:
-            key = yaml.safe_load(yaml.serialize(key_node)) if not isinstance(
-                key_node, yaml.ScalarNode) else key_node.value
-            if key in out:
-                raise ConfigError(f"{source}:{key_node.start_mark.line + 1}: "
-                                  f"{_fmt(path + (key,))}: duplicate key {key!r}")
-            out[key] = _walk(value_node, path + (key,), lines, source)
-        return out
-    if isinstance(node, yaml.SequenceNode):
-        return [_walk(v, path + (i,), lines, source) for i, v in enumerate(node.value)]
-    # Resolve scalars with the safe loader's rules (numbers, bools, null), plus YAML 1.2
-    # floats such as 4.8e5 that YAML 1.1 reads as strings (engineers write them so).
-    value = yaml.safe_load(yaml.serialize(node))
-    if isinstance(value, str) and node.style is None and _FLOAT_12.fullmatch(value):
-        return float(value)
-    return value
+
+class _Walk:
+    """Python data from a composed YAML node graph, with a line for every path and limits
+    on size and depth (aliases are expanded, so they count each time)."""
+
+    def __init__(self, source: str):
+        self.source, self.lines, self.nodes = source, {}, 0
+        self._scalar = yaml.SafeLoader("")  # resolves one scalar node at a time
+
+    def fail(self, node: yaml.Node, path: PathKey, msg: str) -> ConfigError:
+        return ConfigError(f"{self.source}:{node.start_mark.line + 1}: {_fmt(path)}: {msg}")
+
+    def __call__(self, node: yaml.Node, path: PathKey) -> Any:
+        self.nodes += 1
+        if self.nodes > MAX_NODES:  # named at the top-level key that holds them
+            line = self.lines.get(path[:1], node.start_mark.line + 1)
+            raise ConfigError(f"{self.source}:{line}: {_fmt(path[:1])}: more than {MAX_NODES} "
+                              "values (after expanding aliases); put large tables in a CSV "
+                              "file")
+        if len(path) > MAX_DEPTH:
+            raise self.fail(node, path, f"nested deeper than {MAX_DEPTH} levels (or an "
+                                        "alias that contains itself)")
+        self.lines.setdefault(path, node.start_mark.line + 1)
+        if isinstance(node, yaml.MappingNode):
+            if node.tag != f"{_T}map":
+                raise self.fail(node, path, f"tag {node.tag!r} is not allowed (plain YAML only)")
+            out: dict[str, Any] = {}
+            for key_node, value_node in node.value:
+                if not isinstance(key_node, yaml.ScalarNode) or \
+                        key_node.tag not in SAFE_SCALARS:
+                    raise self.fail(key_node, path, "keys must be plain names or numbers")
+                key = key_node.value
+                if key in out:
+                    raise self.fail(key_node, path + (key,), f"duplicate key {key!r}")
+                out[key] = self(value_node, path + (key,))
+            return out
+        if isinstance(node, yaml.SequenceNode):
+            if node.tag != f"{_T}seq":
+                raise self.fail(node, path, f"tag {node.tag!r} is not allowed (plain YAML only)")
+            return [self(v, path + (i,)) for i, v in enumerate(node.value)]
+        if node.tag not in SAFE_SCALARS:
+            raise self.fail(node, path, f"tag {node.tag!r} is not allowed (plain YAML only)")
+        if node.tag == f"{_T}timestamp":
+            return node.value
+        try:
+            value = self._scalar.construct_object(node)
+        except (yaml.YAMLError, ValueError, OverflowError) as exc:
+            raise self.fail(node, path, f"cannot read {node.value!r}: {exc}") from None
+        # YAML 1.2 floats such as 4.8e5, which YAML 1.1 reads as strings (engineers write
+        # them so)
+        if isinstance(value, str) and node.style is None and _FLOAT_12.fullmatch(value):
+            return float(value)
+        return value
 
 
 def load_yaml(path: str | Path) -> tuple[Any, dict[PathKey, int]]:
     """Load a YAML file safely; return ``(data, lines)`` with ``lines[path] = line``.
 
+    Plain YAML data only: the safe schema's scalars, mappings with scalar keys and
+    sequences; no tags beyond those, at most ``MAX_BYTES``, ``MAX_NODES`` values after
+    expanding aliases and ``MAX_DEPTH`` levels.
+
     Raises
     ------
     ConfigError
-        Missing file, YAML syntax error (with line) or duplicate keys.
+        Missing or unreadable file, not UTF-8, YAML syntax error (with line), duplicate keys,
+        a tag or key that is not plain data, a limit exceeded.
     """
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"{path}: file not found")
-    text = path.read_text()
+    try:
+        size = path.stat().st_size
+        if size > MAX_BYTES:
+            raise ConfigError(f"{path}: {size / 2**20:.1f} MB; YAML inputs are limited to "
+                              f"{MAX_BYTES // 2**20} MB (put large tables in a CSV file)")
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read: {exc.strerror}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise ConfigError(f"{path}:{line}: not UTF-8 text (byte {exc.start}: "
+                          f"{raw[exc.start:exc.start + 1]!r})") from None
     try:
         node = yaml.compose(text, Loader=yaml.SafeLoader)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"{path}:{mark.line + 1}" if mark else str(path)
-        raise ConfigError(f"{where}: invalid YAML: {getattr(exc, 'problem', exc)}") from exc
+        raise ConfigError(f"{where}: invalid YAML: {getattr(exc, 'problem', exc)}") from None
+    except RecursionError:
+        raise ConfigError(f"{path}: invalid YAML: nested too deeply") from None
     if node is None:
         raise ConfigError(f"{path}: empty YAML file")
-    lines: dict[PathKey, int] = {}
-    return _walk(node, (), lines, str(path)), lines
+    walk = _Walk(str(path))
+    return walk(node, ()), walk.lines
 
 
 def _fmt(path: PathKey) -> str:

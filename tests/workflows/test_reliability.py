@@ -1,0 +1,301 @@
+"""Nothing lost, nothing executed, every bad input one clear line (issue: reliability and
+security). Each case was a failure of the code before: a folder renamed away, two cases
+writing one file, a swap a kill could interrupt, a gmsh script running a command, a YAML
+alias bomb."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+from test_workflow_run import FOURBAR, _write
+
+from pipeline.core.atomic import folder_lock, replace_dir
+from pipeline.core.errors import ConfigError, MeshError
+from pipeline.meshing.geo_scan import check_geo_script
+from pipeline.workflow import load_workflow, run_workflow
+from pipeline.workflow.yaml_io import MAX_NODES, load_yaml
+
+NO_NAME = FOURBAR.replace("name: fourbar\n", "")
+
+
+def _keepsakes(out: Path) -> dict[str, str]:
+    """Results of an earlier run and a link cache, to prove they survive."""
+    files = {"links/lift_arm.npz": "cached reduction", "other/manifest.json": "{}"}
+    for rel, text in files.items():
+        (out / rel).parent.mkdir(parents=True, exist_ok=True)
+        (out / rel).write_text(text)
+    return files
+
+
+@pytest.mark.parametrize("stem", ["..", "...", ".hidden", "a b"])
+def test_a_file_name_that_cannot_name_the_output_folder_is_refused(tmp_path, stem):
+    path = tmp_path / f"{stem}.yaml"
+    path.write_text(NO_NAME)
+    out = tmp_path / "output"
+    kept = _keepsakes(out)
+    with pytest.raises(ConfigError, match="cannot name the output folder") as exc:
+        run_workflow(path, out_root=out)
+    assert str(path) in str(exc.value) and "name:" in str(exc.value)
+    assert {rel: (out / rel).read_text() for rel in kept} == kept
+    assert sorted(p.name for p in out.iterdir()) == ["links", "other"]
+
+
+@pytest.mark.parametrize("name", ["links", "bench"])
+def test_a_run_cannot_take_a_folder_the_pipeline_keeps(tmp_path, name):
+    out = tmp_path / "output"
+    kept = _keepsakes(out)
+    with pytest.raises(ConfigError, match="keeps in output/"):
+        run_workflow(_write(tmp_path), out_root=out, sets=[f"name={name}"])
+    assert {rel: (out / rel).read_text() for rel in kept} == kept
+
+
+def test_a_run_cannot_replace_a_custom_link_cache(tmp_path):
+    out = tmp_path / "output"
+    kept = _keepsakes(out)
+    with pytest.raises(ConfigError, match="reduced-link cache"):
+        run_workflow(_write(tmp_path), out_root=out, cache_dir=out / "fourbar" / "cache")
+    assert {rel: (out / rel).read_text() for rel in kept} == kept
+
+
+@pytest.mark.parametrize("old, new, where", [
+    ("{label: slow, set: {}}", "{label: slow run, set: {}}\n      - {label: slow_run, set: {}}",
+     "analyses[0].cases[1].label"),
+    ("{label: slow, set: {}}", "{label: Fast, set: {}}", "analyses[0].cases[1].label"),
+    ("{label: slow, set: {}}", "{label: fast, set: {}}", "analyses[0].cases"),
+])
+def test_two_outputs_that_would_write_one_file_are_refused_at_load(tmp_path, old, new, where):
+    text = FOURBAR.replace(old, new)
+    assert text != FOURBAR
+    path = _write(tmp_path, text)
+    with pytest.raises(ConfigError) as exc:
+        load_workflow(path)
+    msg = str(exc.value)
+    assert msg.startswith(f"{path}:") and where in msg, msg
+
+
+def test_a_convergence_study_named_like_a_case_export_is_refused(tmp_path):
+    text = FOURBAR + "  convergence:\n    - {name: turn_slow, analysis: turn, " \
+                     "series: [q:JD.theta]}\n"
+    path = _write(tmp_path, text)
+    with pytest.raises(ConfigError, match="turn_slow.csv") as exc:
+        load_workflow(path)
+    assert "outputs.convergence[0].name" in str(exc.value)
+
+
+SWAPPER = textwrap.dedent("""
+    import json, os, sys
+    from pathlib import Path
+    from pipeline.core.atomic import replace_dir
+    out = Path(sys.argv[1]); final = out / "run"; tag = sys.argv[2]
+    for k in range(int(sys.argv[3])):
+        tmp = out / f".run.partial-{os.getpid()}"
+        tmp.mkdir()
+        for i in range(20):
+            (tmp / f"f{i}.txt").write_text(f"{tag}{k}")
+        (tmp / "manifest.json").write_text(json.dumps({"tag": tag, "k": k, "files": 20}))
+        replace_dir(tmp, final)
+""")
+
+
+def _complete(final: Path) -> bool:
+    man = json.loads((final / "manifest.json").read_text())
+    texts = {(final / f"f{i}.txt").read_text() for i in range(man["files"])}
+    return texts == {f"{man['tag']}{man['k']}"}
+
+
+def test_a_kill_at_any_instant_of_the_swap_leaves_old_or_new_results(tmp_path):
+    script = tmp_path / "swap.py"
+    script.write_text(SWAPPER)
+    subprocess.run([sys.executable, str(script), str(tmp_path), "first", "1"], check=True)
+    delays = [0.05 + 0.013 * k for k in range(12)]
+    for delay in delays:
+        p = subprocess.Popen([sys.executable, str(script), str(tmp_path), "next", "100000"])
+        time.sleep(delay + 0.3)  # the interpreter's start, then somewhere in the loop
+        p.send_signal(signal.SIGKILL)
+        p.wait()
+        assert _complete(tmp_path / "run")
+
+
+def test_concurrent_swaps_never_lose_the_folder(tmp_path):
+    script = tmp_path / "swap.py"
+    script.write_text(SWAPPER)
+    procs = [subprocess.Popen([sys.executable, str(script), str(tmp_path), tag, "60"],
+                              stderr=subprocess.PIPE, text=True) for tag in ("a", "b", "c")]
+    errors = [p.communicate()[1] for p in procs]
+    assert all(p.returncode == 0 for p in procs), errors
+    assert _complete(tmp_path / "run")
+    assert not list(tmp_path.glob(".run.*"))  # nothing left behind
+
+
+def test_replace_dir_into_a_new_place_and_over_an_old_one(tmp_path):
+    a, final = tmp_path / "a", tmp_path / "final"
+    a.mkdir()
+    (a / "x").write_text("1")
+    replace_dir(a, final)
+    assert (final / "x").read_text() == "1" and not a.exists()
+    a.mkdir()
+    (a / "y").write_text("2")
+    replace_dir(a, final)
+    assert sorted(p.name for p in final.iterdir()) == ["y"] and not a.exists()
+
+
+def test_a_second_run_of_one_workflow_is_refused_while_the_first_runs(tmp_path):
+    out = tmp_path / "output"
+    with folder_lock(out, "fourbar"), pytest.raises(ConfigError, match="another run"):
+        run_workflow(_write(tmp_path), out_root=out, cache_dir=tmp_path / "links",
+                     outputs=False)
+    assert not list(out.glob(".fourbar*"))
+
+
+def test_temporaries_of_killed_runs_are_removed_by_the_next_run(tmp_path):
+    out = tmp_path / "output"
+    for name in (".fourbar.partial-999999", ".fourbar.old-999998", ".other.partial-1"):
+        (out / name).mkdir(parents=True)
+        (out / name / "big.npz").write_bytes(b"0" * 1000)
+    run_workflow(_write(tmp_path), out_root=out, cache_dir=tmp_path / "links", outputs=False)
+    assert sorted(p.name for p in out.iterdir()) == [".other.partial-1", "fourbar"]
+
+
+# --- gmsh scripts -----------------------------------------------------------------------------
+
+BOX = 'SetFactory("OpenCASCADE");\nBox(1) = {0, 0, 0, 1, 0.1, 0.1};\n'
+
+
+@pytest.mark.parametrize("line", [
+    'SystemCall "touch {marker}";',
+    'System "touch {marker}";',
+    'NonBlockingSystemCall "touch {marker}";',
+    'Include "other.geo";',
+    'Merge "other.geo";',
+    'Save "{marker}";',
+    'CreateDir "{marker}";',
+    'Printf("%g", 1) > "{marker}";',
+    'Printf("%g", 1) >> "{marker}";',
+    'OnelabRun("x", "touch {marker}");',
+    'Solver.Executable0 = "touch";',
+    "Exit;",
+    'Plugin(CutPlane).Run;',
+])
+def test_gmsh_commands_that_run_or_write_are_refused_before_gmsh_sees_them(tmp_path, line):
+    marker = tmp_path / "ran"
+    geo = tmp_path / "part.geo"
+    geo.write_text(BOX + "// a comment: SystemCall in a comment is fine\n"
+                   + line.format(marker=marker) + "\n")
+    with pytest.raises(MeshError) as exc:
+        check_geo_script(geo, "link arm")
+    assert str(exc.value).startswith(f"{geo}:4: ") and "(link arm)" in str(exc.value)
+    assert not marker.exists()
+
+
+def test_an_ordinary_geo_script_passes_the_scan(tmp_path):
+    geo = tmp_path / "part.geo"
+    geo.write_text(BOX + 'a = 2; b = 1;\nPrintf("%g", a > b ? 1 : 0);\n'
+                   '/* Exit; Include "x"; */\nS = "SystemCall";\n'
+                   'Physical Volume("body") = {1};\n')
+    check_geo_script(geo)
+
+
+def test_a_link_spec_with_a_forbidden_geo_command_is_refused_on_reduce(tmp_path):
+    from pipeline.workflow.link_build import reduce_spec
+    from pipeline.workflow.link_spec import load_link_spec
+
+    marker = tmp_path / "ran"
+    (tmp_path / "part.geo").write_text(BOX + f'SystemCall "touch {marker}";\n')
+    spec = tmp_path / "part.yaml"
+    spec.write_text(textwrap.dedent("""\
+        name: part
+        geometry: {type: solid, recipe: geo, path: part.geo, mesh_size: 0.05}
+        material: {E: 2.1e11, nu: 0.3, rho: 7850}
+        interfaces:
+          - {name: root, selector: {type: plane, point: [0, 0, 0], normal: [1, 0, 0]}, origin: [0, 0, 0], z_axis: [1, 0, 0]}
+        reference: root
+        modes: {count: 2}
+        """))
+    with pytest.raises(MeshError, match="SystemCall"):
+        reduce_spec(load_link_spec(spec), tmp_path, tmp_path / "links")
+    assert not marker.exists()
+
+
+# --- YAML -------------------------------------------------------------------------------------
+
+def _bomb(levels: int = 12) -> str:
+    lines = ["a0: &a0 [x, x, x, x, x, x, x, x, x]"]
+    for k in range(1, levels):
+        refs = ", ".join([f"*a{k - 1}"] * 9)
+        lines.append(f"a{k}: &a{k} [{refs}]")
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("text, line, expect", [
+    (_bomb(), 6, f"a5: more than {MAX_NODES} values"),
+    ("a: &a [1, *a]\n", 1, "nested deeper"),
+    ("a: &a {b: *a}\n", 1, "nested deeper"),
+    ("a:\n" + "".join("  " * (k + 1) + f"k{k}:\n" for k in range(80)) + "  " * 81 + "v: 1\n",
+     None, "nested deeper"),
+    ("x: 1\n? [1, 2]\n: 3\n", 2, "keys must be plain"),
+    ("x: 1\ny: !!python/object/apply:os.system ['touch ran']\n", 2, "not allowed"),
+    ("x: !foo 3\n", 1, "not allowed"),
+    ("x: !!binary aGVsbG8=\n", 1, "not allowed"),
+    ("x: !!set {a, b}\n", 1, "not allowed"),
+    ("x: 1\nx: 2\n", 2, "duplicate key"),
+])
+def test_yaml_beyond_plain_data_or_the_limits_is_one_clear_error(tmp_path, text, line, expect):
+    path = tmp_path / "w.yaml"
+    path.write_text(text)
+    t0 = time.perf_counter()
+    with pytest.raises(ConfigError) as exc:
+        load_yaml(path)
+    msg = str(exc.value)
+    assert expect in msg and msg.startswith(f"{path}:" if line is None else f"{path}:{line}:")
+    assert time.perf_counter() - t0 < 30  # the 12-level bomb expands to 2.8e11 values
+    assert not (tmp_path / "ran").exists()
+
+
+def test_deep_flow_nesting_that_overflows_the_parser_is_one_clear_error(tmp_path):
+    path = tmp_path / "w.yaml"
+    path.write_text("x: " + "[" * 3000 + "]" * 3000 + "\n")
+    with pytest.raises(ConfigError, match=f"{path}"):
+        load_yaml(path)
+
+
+def test_non_utf8_bytes_name_the_line(tmp_path):
+    path = tmp_path / "w.yaml"
+    path.write_bytes(b"name: a\ndescription: caf\xe9\n")
+    with pytest.raises(ConfigError, match=rf"{path}:2: not UTF-8"):
+        load_yaml(path)
+
+
+def test_a_huge_file_is_refused_before_it_is_read(tmp_path):
+    path = tmp_path / "w.yaml"
+    with open(path, "wb") as fh:
+        fh.write(b"x: [")
+        fh.seek(9 * 2**20)
+        fh.write(b"1]\n")
+    with pytest.raises(ConfigError, match="limited to 8 MB"):
+        load_yaml(path)
+
+
+def test_dates_stay_text_and_numbers_keep_their_types(tmp_path):
+    path = tmp_path / "w.yaml"
+    path.write_text("d: 2026-11-24\nf: 4.8e5\ni: 3\nb: true\nn: null\ns: 'x'\n")
+    data, lines = load_yaml(path)
+    assert data == {"d": "2026-11-24", "f": 480000.0, "i": 3, "b": True, "n": None, "s": "x"}
+    assert lines[("i",)] == 3
+
+
+def test_the_cli_prints_one_line_for_a_yaml_bomb(tmp_path):
+    path = tmp_path / "bomb.yaml"
+    path.write_text(_bomb())
+    r = subprocess.run([sys.executable, "-m", "pipeline", "validate", str(path)],
+                       capture_output=True, text=True, check=False,
+                       env={**os.environ, "PYTHONWARNINGS": "ignore"})
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.stderr.strip().count("\n") == 0 and str(path) in r.stderr
