@@ -35,6 +35,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="pipeline", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"pipeline {__version__}")
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
+    parser.add_argument("--debug", action="store_true",
+                        help="show the traceback of an error (default: one line)")
     sub = parser.add_subparsers(dest="command", required=True)
     for name, (module, help_text) in COMMANDS.items():
         mod = importlib.import_module(f"pipeline.commands.{module}")
@@ -52,9 +54,28 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     try:
         return int(args._run(args) or 0)
-    except PipelineError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:  # every failure, expected or not, ends as one line
+        if args.debug:
+            raise
+        code, line = error_line(exc)
+        print(f"error: {line}", file=sys.stderr)
+        return code
+
+
+def error_line(exc: BaseException) -> tuple[int, str]:
+    """(exit code, one line) for a failure: 2 for bad input and the environment (files,
+    disk, memory), 3 for an internal error (with the advice to rerun with --debug)."""
+    if isinstance(exc, PipelineError):
+        return 2, str(exc)
+    if isinstance(exc, OSError):
+        where = exc.filename or ""
+        what = exc.strerror or str(exc)
+        return 2, f"{where}: {what}" if where else what
+    if isinstance(exc, MemoryError):
+        return 2, ("out of memory: the model is too large for this machine (coarser meshes, "
+                   "fewer modes or fewer outputs)")
+    return 3, (f"internal error ({type(exc).__name__}: {exc}); please report it with the "
+               "output of 'pipeline --debug ...'")

@@ -32,6 +32,10 @@ class ClosureError(KinematicsError):
         self.residual = residual
         self.q_closest = q_closest
 
+    def __reduce__(self):  # pickles (errors cross process boundaries in parallel runs)
+        return type(self), (str(self), self.loop, self.cut_joint, self.residual,
+                            self.q_closest)
+
 
 class SingularConfigurationError(KinematicsError):
     """The dependent coordinates cannot be solved for: the constraint Jacobian
@@ -55,3 +59,7 @@ class SingularConfigurationError(KinematicsError):
         self.t = t
         self.drivers = dict(drivers or {})
         self.rcond = rcond
+
+    def __reduce__(self):
+        return type(self), (str(self), self.joints, self.q, self.t, self.drivers,
+                            self.rcond)

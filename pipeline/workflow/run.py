@@ -116,7 +116,15 @@ def _run_parallel(wf, base, tasks, cache, machines, cache_dir, rebuild, workers,
                                        a.name, cache_dir, rebuild) for a, case in tasks]
     t0 = time.perf_counter()
     with stage(f"{wf.name}: {len(jobs)} analysis cases on {workers} processes"):
-        done = dask.compute(*jobs, scheduler="processes", num_workers=workers)
+        try:
+            done = dask.compute(*jobs, scheduler="processes", num_workers=workers)
+        except Exception as exc:
+            # dask re-raises a worker's error with its traceback in the message; the
+            # original (each of ours pickles) says it in one line
+            original = getattr(exc, "exception", None)
+            if isinstance(original, BaseException):
+                raise original from None
+            raise
     timings["analyses (parallel)"] = time.perf_counter() - t0
     results = {}
     for (a, case), r in zip(tasks, done):

@@ -299,3 +299,70 @@ def test_the_cli_prints_one_line_for_a_yaml_bomb(tmp_path):
                        env={**os.environ, "PYTHONWARNINGS": "ignore"})
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert r.stderr.strip().count("\n") == 0 and str(path) in r.stderr
+
+
+# --- one error path ---------------------------------------------------------------------------
+
+def test_kinematic_errors_pickle_with_their_message_and_figures():
+    import pickle
+
+    import numpy as np
+
+    from pipeline.kinematics.failures import ClosureError, SingularConfigurationError
+
+    e = ClosureError("loop L1 does not close", "L1", "JC", np.ones(6), np.zeros(4))
+    f = pickle.loads(pickle.dumps(e))
+    assert str(f) == str(e) and f.loop == "L1" and np.array_equal(f.residual, e.residual)
+    e = SingularConfigurationError("singular", ("J1",), np.zeros(2), 0.5, {"J1.theta": 1.0})
+    f = pickle.loads(pickle.dumps(e))
+    assert str(f) == "singular" and f.t == 0.5 and f.drivers == {"J1.theta": 1.0}
+
+
+def test_an_output_path_that_is_a_file_is_one_line(tmp_path):
+    blocker = tmp_path / "output"
+    blocker.write_text("not a folder")
+    r = subprocess.run([sys.executable, "-m", "pipeline", "run", str(_write(tmp_path)),
+                        "--out", str(blocker)], capture_output=True, text=True, check=False)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    (line,) = r.stderr.strip().splitlines()[-1:]
+    assert line.startswith("error: ") and str(blocker) in line
+
+
+def test_an_environment_error_names_the_file_and_the_reason():
+    import errno
+
+    from pipeline.cli import error_line
+
+    code, line = error_line(OSError(errno.ENOSPC, "No space left on device", "out/a.csv"))
+    assert code == 2 and line == "out/a.csv: No space left on device"
+    code, line = error_line(OSError(errno.EROFS, "Read-only file system", "out"))
+    assert code == 2 and line == "out: Read-only file system"
+    assert error_line(MemoryError())[0] == 2
+
+
+def test_an_internal_error_is_one_line_unless_debug(tmp_path, monkeypatch, capsys):
+    from pipeline import cli
+    from pipeline.commands import validate
+
+    def broken(args):
+        raise ZeroDivisionError("division by zero")
+
+    monkeypatch.setattr(validate, "run", broken)
+    assert cli.main(["validate", str(_write(tmp_path))]) == 3
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "internal error (ZeroDivisionError" in err
+    assert "--debug" in err
+    with pytest.raises(ZeroDivisionError):
+        cli.main(["--debug", "validate", str(_write(tmp_path))])
+
+
+def test_an_error_in_a_worker_arrives_as_the_original_one_line_error(tmp_path):
+    from pipeline.core.errors import PipelineError
+
+    text = FOURBAR.replace("{label: fast, set: {drivers.JA.theta.rate: 12.566370614359172}}",
+                           "{label: fast, set: {links.coupler.frames.C.origin: [30, 0, 0]}}")
+    with pytest.raises(PipelineError) as exc:
+        run_workflow(_write(tmp_path, text), out_root=tmp_path / "out",
+                     cache_dir=tmp_path / "links", outputs=False, workers=2)
+    assert "Traceback" not in str(exc.value) and "fast" in str(exc.value)
+    assert not (tmp_path / "out" / "fourbar").exists()
