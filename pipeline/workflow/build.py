@@ -28,6 +28,7 @@ from pipeline.workflow.link_build import frame_axes, input_hash, link_request, r
 from pipeline.workflow.link_spec import LinkSpec
 from pipeline.workflow.load import Workflow
 from pipeline.workflow.overrides import apply_overrides
+from pipeline.workflow.schema import inertia_matrix
 from pipeline.workflow.yaml_io import config_error, load_yaml
 
 #: fields of force elements that name a marker as "link.frame"
@@ -82,14 +83,6 @@ def frame_pose(f, where: str) -> np.ndarray:
         except (ConfigError, FloatingPointError, ZeroDivisionError) as exc:
             raise ConfigError(f"{where}: {exc}") from None
     return T
-
-
-def _inertia(value) -> np.ndarray:
-    a = np.asarray(value, dtype=float)
-    if a.shape == (6,):
-        ixx, iyy, izz, ixy, iyz, ixz = a
-        a = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
-    return a
 
 
 def _link_spec(wf: Workflow, name: str, entry) -> tuple[LinkSpec, Path]:
@@ -181,7 +174,7 @@ def build_links(wf: Workflow, cache_dir: Path, rebuild: bool = False):
                 continue  # massless intermediate link
             com = entry.com if entry.com is not None else [0.0, 0.0, 0.0]
             try:
-                bodies[name] = BodyMass.rigid(entry.mass, com, _inertia(entry.inertia))
+                bodies[name] = BodyMass.rigid(entry.mass, com, inertia_matrix(entry.inertia))
             except ConfigError as exc:
                 raise ConfigError(f"{where}: {exc}") from None
             continue

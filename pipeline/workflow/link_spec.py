@@ -27,7 +27,8 @@ Mat3 = Annotated[list[Vec3], Field(min_length=3, max_length=3)]
 
 
 class Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # strict: no booleans or strings for numbers; finite numbers only
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
 
 
 class MaterialSpec(Strict):

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
+import numpy as np
 from pydantic import Field, field_validator, model_validator
 
 from pipeline.workflow.link_spec import LinkSpec, Mat3, Strict, Vec3
@@ -83,7 +84,39 @@ class RigidLink(Strict):
             raise ValueError("a rigid link with mass needs inertia (kg m^2 about the COM)")
         if not given and (self.com is not None or self.inertia is not None):
             raise ValueError("com and inertia need mass")
+        if self.inertia is not None:
+            check_inertia(inertia_matrix(self.inertia))
         return self
+
+
+def inertia_matrix(value) -> np.ndarray:
+    """(3, 3) inertia tensor, kg m^2, from [ixx, iyy, izz, ixy, iyz, ixz] or a 3x3 list."""
+    a = np.asarray(value, dtype=float)
+    if a.shape == (6,):
+        ixx, iyy, izz, ixy, iyz, ixz = a
+        a = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+    return a
+
+
+def check_inertia(J: np.ndarray) -> None:
+    """ValueError unless J (3, 3) is a physical inertia tensor about the COM: symmetric,
+    positive definite, principal moments obeying the triangle inequality
+    (I1 + I2 >= I3, equality for a flat plate)."""
+    scale = float(np.abs(J).max())
+    if scale == 0.0:
+        raise ValueError("inertia is all zero; give the moments about the COM (a thin rod "
+                         "still needs a small moment about its axis)")
+    if np.abs(J - J.T).max() > 1e-9 * scale:
+        raise ValueError(f"inertia is not symmetric: {J.tolist()}")
+    moments = np.linalg.eigvalsh(J)
+    if moments[0] <= 1e-12 * scale:
+        raise ValueError(f"inertia is not positive definite: principal moments "
+                         f"{np.round(moments, 12).tolist()} kg m^2 (a thin rod still needs a "
+                         "small moment about its axis)")
+    if moments[0] + moments[1] < moments[2] * (1.0 - 1e-9):
+        raise ValueError(f"principal moments {np.round(moments, 12).tolist()} kg m^2 break the "
+                         "triangle inequality I1 + I2 >= I3: no body has them (a sign or an "
+                         "axis mixed up?)")
 
 
 class DampingSpec(Strict):
@@ -183,9 +216,15 @@ class _Analysis(Strict):
         return value
 
 
+#: most output times of one analysis (each holds the whole state: 1e6 x 100 coordinates
+#: is already ~2 GB of histories)
+MAX_OUTPUTS = 1_000_000
+
+
 class _Timed(_Analysis):
     t_end: float = Field(gt=0, description="s")
-    outputs: int = Field(101, ge=2, description="number of output times on [0, t_end]")
+    outputs: int = Field(101, ge=2, le=MAX_OUTPUTS, description="number of output times on "
+                                                                 "[0, t_end]")
 
 
 class KinematicAnalysis(_Timed):
@@ -236,6 +275,18 @@ class DynamicAnalysis(_Timed):
     rho_inf: float = Field(0.8, ge=0, le=1, description="generalized_alpha spectral radius")
     start: Literal["initial", "static"] = Field(
         "initial", description="start from the initial state or from static equilibrium")
+
+    @model_validator(mode="after")
+    def _within_budget(self):
+        """A fixed step, or a largest step, that needs more steps than the budget allows
+        is refused here rather than found out after max_steps steps."""
+        for key in ("step", "max_step"):
+            h = getattr(self, key)
+            if h is not None and self.t_end / h > self.max_steps:
+                raise ValueError(f"{key}: {h:g} s needs at least {self.t_end / h:.3g} steps over "
+                                 f"t_end = {self.t_end:g} s, more than max_steps = "
+                                 f"{self.max_steps}; raise the step or max_steps")
+        return self
 
 
 class LinearisedAnalysis(_Analysis):

@@ -152,7 +152,7 @@ def config_error(exc: ValidationError, source: str | Path, data: Any,
     for err in exc.errors():
         path = _yaml_path(tuple(err["loc"]), data)
         line = lines.get(path, lines.get((), 1))
-        msg = err["msg"]
+        msg = err["msg"].removeprefix("Value error, ")
         if err["type"] == "extra_forbidden":
             msg = "unknown key (misspelt?)"
         elif err["type"] == "missing":

@@ -366,3 +366,62 @@ def test_an_error_in_a_worker_arrives_as_the_original_one_line_error(tmp_path):
                      cache_dir=tmp_path / "links", outputs=False, workers=2)
     assert "Traceback" not in str(exc.value) and "fast" in str(exc.value)
     assert not (tmp_path / "out" / "fourbar").exists()
+
+
+# --- numbers ----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("old, new, path_text, expect", [
+    ("    t_end: 1.0", "    t_end: true", "analyses[0].t_end", "valid number"),
+    ("    t_end: 1.0", "    t_end: 1e999", "analyses[0].t_end", "finite number"),
+    ("    t_end: 1.0", "    t_end: .nan", "analyses[0].t_end", "finite number"),
+    ("    t_end: 1.0", "    t_end: '1.0'", "analyses[0].t_end", "valid number"),
+    ("    outputs: 73", "    outputs: 2000000000", "analyses[0].outputs", "less than or equal"),
+    ("    outputs: 73", "    outputs: true", "analyses[0].outputs", "valid integer"),
+    ("    mass: 1.0", "    mass: .inf", "links.crank", "finite number"),
+    ("[0, -9.81, 0]", "[0, true, 0]", "gravity[1]", "valid number"),
+])
+def test_numbers_must_be_finite_numbers(tmp_path, old, new, path_text, expect):
+    text = FOURBAR.replace(old, new, 1)
+    assert text != FOURBAR
+    path = _write(tmp_path, text)
+    with pytest.raises(ConfigError) as exc:
+        load_workflow(path)
+    msg = str(exc.value)
+    assert msg.startswith(f"{path}:") and path_text in msg and expect in msg, msg
+
+
+@pytest.mark.parametrize("extra, expect", [
+    ("    max_step: 1.0e-7\n", "max_step: 1e-07 s needs at least 5e+06 steps"),
+    ("    method: generalized_alpha\n    step: 1.0e-8\n", "step: 1e-08 s needs at least 5e+07"),
+])
+def test_a_step_beyond_the_step_budget_is_refused_up_front(tmp_path, extra, expect):
+    from test_workflow_trust import FREE
+
+    text = FREE.replace("    outputs: 11\n", "    outputs: 11\n" + extra)
+    path = _write(tmp_path, text)
+    with pytest.raises(ConfigError) as exc:
+        load_workflow(path)
+    assert "analyses[0]: " + expect in str(exc.value)
+
+
+# --- physics of the inputs --------------------------------------------------------------------
+
+@pytest.mark.parametrize("inertia, expect", [
+    ("[-0.1, 2.3, 2.3, 0, 0, 0]", "not positive definite"),
+    ("[0, 0, 0, 0, 0, 0]", "all zero"),
+    ("[0.003, 2.3, 2.3, 3.0, 0, 0]", "not positive definite"),
+    ("[1.0, 1.0, 3.0, 0, 0, 0]", "triangle inequality"),
+    ("[[1, 0.1, 0], [0.2, 1, 0], [0, 0, 1]]", "not symmetric"),
+])
+def test_a_rigid_inertia_no_body_can_have_is_refused(tmp_path, inertia, expect):
+    text = FOURBAR.replace("inertia: [0.003, 2.3, 2.3, 0, 0, 0]", f"inertia: {inertia}")
+    assert text != FOURBAR
+    path = _write(tmp_path, text)
+    with pytest.raises(ConfigError, match=expect) as exc:
+        load_workflow(path)
+    assert str(exc.value).startswith(f"{path}:") and "links.coupler" in str(exc.value)
+
+
+def test_a_thin_plate_meets_the_triangle_inequality_with_equality(tmp_path):
+    text = FOURBAR.replace("inertia: [0.003, 2.3, 2.3, 0, 0, 0]", "inertia: [1.0, 2.0, 3.0, 0, 0, 0]")
+    load_workflow(_write(tmp_path, text))
