@@ -43,4 +43,6 @@ def run(args: argparse.Namespace) -> int:
             for w in c.get("warnings", []):
                 print(f"      {w}")
     print(f"  files: {', '.join(man['files'])}")
+    for note in man.get("skipped_outputs", []):
+        print(f"  skipped: {note}")
     return 0 if man["status"] == "ok" else 1

@@ -150,6 +150,16 @@ def check_references(wf: Workflow) -> None:
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise wf.error("outputs", msg=f"duplicate output names {dup} (they name files)")
+    for kind, key in (("plots", "cases"), ("renders", "case"), ("animations", "case")):
+        for i, o in enumerate(getattr(spec.outputs, kind)):
+            asked = getattr(o, key)
+            asked = [] if asked is None else [asked] if isinstance(asked, str) else asked
+            labels = [c.label for c in spec.analysis(o.analysis).cases]
+            bad = [c for c in asked if c not in labels]
+            if bad:
+                raise wf.error("outputs", kind, i, key,
+                               msg=f"expected case labels of analysis {o.analysis!r} among "
+                                   f"{labels}, got {bad}")
     clash = file_collision(spec)
     if clash:
         file, first, second = clash

@@ -4,6 +4,7 @@ animations and the ParaView series. Returns the relative file names for the mani
 from __future__ import annotations
 
 import csv
+import logging
 import time
 from pathlib import Path
 
@@ -13,6 +14,8 @@ from pipeline.core.errors import ConfigError
 from pipeline.core.progress import stage
 from pipeline.workflow.names import slug
 from pipeline.workflow.series import marker_positions, series
+
+logger = logging.getLogger(__name__)
 
 
 def _stem(r) -> str:
@@ -75,7 +78,7 @@ def _markers_of(m, a):
     return [tuple(s.split(".", 1)) for s in a.markers]
 
 
-def write_exports(folder: Path, wf, machines, results) -> list[str]:
+def write_exports(folder: Path, wf, machines, results, skipped: list[str]) -> list[str]:
     files = []
     ex = wf.spec.outputs.exports
     for name, rs in results.items():
@@ -83,6 +86,9 @@ def write_exports(folder: Path, wf, machines, results) -> list[str]:
         for r in rs:
             mech = machines[r.case].mechanism
             stem = _stem(r)
+            if not has_data(r):
+                skipped.append(f"exports: {_why(r)}")
+                continue
             if ex.csv:
                 if r.type == "linearised":
                     export_modes_csv(folder / f"{stem}_modes.csv", r)
@@ -95,7 +101,7 @@ def write_exports(folder: Path, wf, machines, results) -> list[str]:
     return files
 
 
-def _plot(folder: Path, wf, machines, results, idx: int, p) -> str:
+def _plot(folder: Path, wf, machines, results, idx: int, p, skipped) -> str | None:
     from pipeline.post.plots import Curve, Panel, plot_panels
 
     rs = results[p.analysis]
@@ -106,6 +112,12 @@ def _plot(folder: Path, wf, machines, results, idx: int, p) -> str:
             raise wf.error("outputs", "plots", idx, "cases",
                            msg=f"expected case labels among {known}, got {bad}")
         rs = [r for r in rs if r.case in p.cases]
+    for r in rs:
+        if not has_data(r):
+            skipped.append(f"plot {p.name!r}: left out: {_why(r)}")
+    rs = [r for r in rs if has_data(r)]
+    if not rs:
+        return None
     panels = []
     for s in p.series:
         curves, unit, label = [], "", s
@@ -190,12 +202,18 @@ def rigid_configuration(mech, q) -> np.ndarray:
     return q
 
 
-def _render(folder, wf, machines, results, idx, rs_spec) -> str:
+def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
     from pipeline.post.scene import render_machine, render_positions
 
     rs = results[rs_spec.analysis]
     path = folder / f"{rs_spec.name}.png"
     if rs_spec.case is None and len(rs) > 1 and rs[0].type == "static":
+        for r in rs:
+            if not has_data(r):
+                skipped.append(f"render {rs_spec.name!r}: left out: {_why(r)}")
+        rs = [r for r in rs if has_data(r)]
+        if not rs:
+            return None
         m = machines[rs[0].case]
         shapes = machine_shapes(m)
         Q = [r.q[-1] for r in rs]
@@ -205,6 +223,9 @@ def _render(folder, wf, machines, results, idx, rs_spec) -> str:
                          ghost_q=[rigid_configuration(m.mechanism, q) for q in Q])
         return path.name
     r = _pick(rs, rs_spec.case, wf, "outputs", "renders", idx, "case")
+    if not has_data(r):
+        skipped.append(f"render {rs_spec.name!r}: {_why(r)}")
+        return None
     m = machines[r.case]
     shapes = machine_shapes(m)
     if rs_spec.at:
@@ -228,10 +249,13 @@ def _render(folder, wf, machines, results, idx, rs_spec) -> str:
     return path.name
 
 
-def _animate(folder, wf, machines, results, idx, an) -> str:
+def _animate(folder, wf, machines, results, idx, an, skipped) -> str | None:
     from pipeline.post.scene import animate_machine
 
     r = _pick(results[an.analysis], an.case, wf, "outputs", "animations", idx, "case")
+    if not has_data(r):
+        skipped.append(f"animation {an.name!r}: {_why(r)}")
+        return None
     m = machines[r.case]
     shapes = machine_shapes(m)
     scale = _scale(an.scale) or _auto_scale(m, shapes, r.q[:: max(1, len(r.t) // 10)])
@@ -256,10 +280,14 @@ def _vtu(folder, machines, results) -> list[str]:
     return files
 
 
-def _convergence(folder, machines, results, c) -> list[str]:
+def _convergence(folder, machines, results, c, skipped) -> list[str]:
     from pipeline.post.study_plot import plot_convergence
     from pipeline.workflow.study import convergence, write_convergence_csv
 
+    missing = [r for r in results[c.analysis] if not has_data(r)]
+    if missing:
+        skipped.append(f"convergence {c.name!r}: " + "; ".join(_why(r) for r in missing))
+        return []
     conv = convergence(results[c.analysis], machines, c.series, c.reference)
     write_convergence_csv(folder / f"{c.name}.csv", conv)
     plot_convergence(folder / f"{c.name}.png", conv.labels, conv.relative,
@@ -267,33 +295,55 @@ def _convergence(folder, machines, results, c) -> list[str]:
     return [f"{c.name}.csv", f"{c.name}.png"]
 
 
-def write_outputs(folder: Path, wf, machines, results, timings: dict) -> list[str]:
-    """All requested outputs of a run into ``folder``; returns their relative names."""
+def write_outputs(folder: Path, wf, machines, results, timings: dict,
+                  skipped: list[str] | None = None) -> list[str]:
+    """All requested outputs of a run into ``folder``; returns their relative names. An
+    output whose analysis (or case) has no results is skipped with a note in ``skipped``;
+    the others are written."""
+    skipped = [] if skipped is None else skipped
     files = []
     t0 = time.perf_counter()
     with stage(f"{wf.name}: exports"):
-        files += write_exports(folder, wf, machines, results)
+        files += write_exports(folder, wf, machines, results, skipped)
     timings["exports"] = time.perf_counter() - t0
     outs = wf.spec.outputs
     t0 = time.perf_counter()
     with stage(f"{wf.name}: plots"):
         for i, p in enumerate(outs.plots):
-            files.append(_plot(folder, wf, machines, results, i, p))
+            files.append(_plot(folder, wf, machines, results, i, p, skipped))
     timings["plots"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     with stage(f"{wf.name}: renders"):
         for i, r in enumerate(outs.renders):
-            files.append(_render(folder, wf, machines, results, i, r))
+            files.append(_render(folder, wf, machines, results, i, r, skipped))
         for i, an in enumerate(outs.animations):
-            files.append(_animate(folder, wf, machines, results, i, an))
+            files.append(_animate(folder, wf, machines, results, i, an, skipped))
     timings["renders"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     for c in outs.convergence:
-        files += _convergence(folder, machines, results, c)
+        files += _convergence(folder, machines, results, c, skipped)
     timings["studies"] = time.perf_counter() - t0
     if outs.exports.vtu:
         t0 = time.perf_counter()
         with stage(f"{wf.name}: ParaView series"):
             files += _vtu(folder, machines, results)
         timings["vtu"] = time.perf_counter() - t0
-    return files
+    for note in skipped:
+        logger.warning("%s: %s", wf.name, note)
+    return [f for f in files if f is not None]
+
+
+def has_data(r) -> bool:
+    """Whether a result holds the histories its outputs are drawn from (a failed analysis
+    may hold none, or a partial history)."""
+    if len(r.t) == 0:
+        return False
+    return r.type != "linearised" or "frequencies_hz" in r.extra
+
+
+def _what(r) -> str:
+    return f"analysis {r.name!r}" + (f" case {r.case!r}" if r.case else "")
+
+
+def _why(r) -> str:
+    return f"no results in {_what(r)} ({r.message})"

@@ -77,7 +77,20 @@ def _case_machine(wf: Workflow, base: Machine, cache: dict, case, cache_dir, reb
 
 
 def check_outputs(wf: Workflow, m: Machine) -> None:
-    """Series of the plots must exist in the built machine and their analysis type."""
+    """Markers of the analyses and series of the plots and studies must exist in the built
+    machine (and suit their analysis type): checked before any analysis runs."""
+    mech = m.mechanism
+    for i, a in enumerate(wf.spec.analyses):
+        for k, marker in enumerate(a.markers):
+            link, _, frame = marker.partition(".")
+            frames = [f.name for f in mech.links[mech.link_index(link)].frames] \
+                if link in mech.link_names else None
+            if frames is None or frame not in frames:
+                known = sorted(mech.link_names) if frames is None else sorted(frames)
+                raise wf.error("analyses", i, "markers", k,
+                               msg=f"expected link.frame, got {marker!r} (known "
+                                   f"{'links' if frames is None else 'frames of ' + link}: "
+                                   f"{known})")
     types = {a.name: a.type for a in wf.spec.analyses}
     for i, p in enumerate(wf.spec.outputs.plots):
         for s in ([p.x] if p.x != "time" else []) + list(p.series):
@@ -217,11 +230,15 @@ def _run_locked(wf, cache_dir, final, tmp, rebuild, outputs, workers, timings,
                 key = f"analysis:{a.name}"
                 timings[key] = timings.get(key, 0.0) + time.perf_counter() - t0
         files: list[str] = []
+        skipped: list[str] = []
         if outputs:
-            files = write_outputs(tmp, wf, machines, results, timings)
+            files = write_outputs(tmp, wf, machines, results, timings, skipped)
         status = overall_status(r for rs in results.values() for r in rs)
+        if skipped and status == "ok":
+            status = "partial"
         timings["total"] = time.perf_counter() - t_start
         manifest = _manifest(wf, base, results, timings, status, files)
+        manifest["skipped_outputs"] = skipped
         (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, default=str))
         replace_dir(tmp, final)
     except BaseException:
