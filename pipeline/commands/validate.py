@@ -24,10 +24,11 @@ def run(args: argparse.Namespace) -> int:
           f"{len(spec.joints)} joints, {len(spec.forces)} force elements, "
           f"{len(spec.analyses)} analyses ({', '.join(a.name for a in spec.analyses)})")
     if args.build:
-        from pipeline.workflow.run import check_outputs
+        from pipeline.workflow.run import build_cases, check_outputs
 
         m = build_machine(wf)
         check_outputs(wf, m)
+        build_cases(wf, m, "output/links")
         print(f"built: {m.mechanism.n} coordinates ({', '.join(m.mechanism.coordinates)})")
         for line in machine_report(m):
             print(f"  {line}")

@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from pipeline.core.errors import ConfigError
 from pipeline.core.validate import check_positive, validate_array
 
 
@@ -85,7 +86,12 @@ class BodyMass:
         check_positive(mass, "mass")
         com = validate_array(com, (3,), "center_of_mass")
         inertia = validate_array(inertia, (3, 3), "inertia")
-        return cls(C=rigid_C(mass, com, inertia))
+        with np.errstate(over="ignore", invalid="ignore"):
+            C = rigid_C(mass, com, inertia)
+        if not np.isfinite(C).all():
+            raise ConfigError(f"mass properties overflow (mass {mass:g} kg, centre of mass "
+                              f"{com.tolist()} m): values too large for double precision")
+        return cls(C=C)
 
 
 @dataclass(frozen=True)

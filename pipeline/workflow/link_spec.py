@@ -53,7 +53,7 @@ class SolidGeometrySpec(Strict):
     params: dict[str, Any] = Field(default_factory=dict, description="recipe parameters, SI")
     path: str | None = Field(None, description=".geo or STEP file, relative to the spec file")
     mesh_size: float = Field(gt=0, description="target element size, m")
-    order: Literal[1, 2] = Field(2, description="geometric order of the tetrahedra")
+    order: int = Field(2, ge=1, le=2, description="geometric order of the tetrahedra, 1 or 2")
 
 
 class BeamGeometrySpec(Strict):

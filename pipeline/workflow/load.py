@@ -160,6 +160,9 @@ def check_references(wf: Workflow) -> None:
                 raise wf.error("outputs", kind, i, key,
                                msg=f"expected case labels of analysis {o.analysis!r} among "
                                    f"{labels}, got {bad}")
+    for a in spec.analyses:  # each case's overrides give a valid workflow (the schema)
+        for c in a.cases:
+            wf.for_case(c.set, c.label)
     clash = file_collision(spec)
     if clash:
         file, first, second = clash

@@ -76,6 +76,19 @@ def _case_machine(wf: Workflow, base: Machine, cache: dict, case, cache_dir, reb
     return m
 
 
+def build_cases(wf: Workflow, base: Machine, cache_dir, rebuild: bool = False,
+                cache: dict | None = None) -> dict[str, Machine]:
+    """The machine of every analysis case (label -> Machine; "" the base), built before
+    any analysis runs so that a bad case override is found first, in one line naming the
+    file, the case and the YAML path."""
+    cache = {} if cache is None else cache
+    machines = {"": base}
+    for a in wf.spec.analyses:
+        for case in a.cases:
+            machines[case.label] = _case_machine(wf, base, cache, case, cache_dir, rebuild)
+    return machines
+
+
 def check_outputs(wf: Workflow, m: Machine) -> None:
     """Markers of the analyses and series of the plots and studies must exist in the built
     machine (and suit their analysis type): checked before any analysis runs."""
@@ -212,8 +225,10 @@ def _run_locked(wf, cache_dir, final, tmp, rebuild, outputs, workers, timings,
             base = build_machine(wf, cache_dir, rebuild)
         timings["build"] = time.perf_counter() - t0
         check_outputs(wf, base)
+        cache: dict = {}
+        build_cases(wf, base, cache_dir, rebuild, cache)
         _warn_redundant(wf, base)
-        machines, cache = {"": base}, {}
+        machines = {"": base}
         tasks = [(a, case) for a in wf.spec.analyses for case in (a.cases or [None])]
         if workers > 1 and len(tasks) > 1:
             results = _run_parallel(wf, base, tasks, cache, machines, cache_dir, rebuild,

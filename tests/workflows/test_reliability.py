@@ -485,3 +485,40 @@ def test_a_marker_typo_is_found_before_the_analyses_run(tmp_path, marker, expect
     with pytest.raises(ConfigError, match="markers"):
         run_workflow(path, out_root=tmp_path / "out", cache_dir=tmp_path / "links")
     assert not (tmp_path / "out" / "fourbar").exists()
+
+
+def test_what_the_fuzzer_found_stays_fixed(tmp_path):
+    """A boolean accepted as the tetrahedra's order (True == 1), and mass properties
+    that overflow to inf accepted silently."""
+    from pipeline.workflow.build import build_machine
+    from pipeline.workflow.link_spec import load_link_spec
+
+    spec = (Path(__file__).resolve().parents[2] / "meshes" / "al_bar.yaml").read_text()
+    path = tmp_path / "al_bar.yaml"
+    path.write_text(spec.replace("  order: 2", "  order: true"))
+    with pytest.raises(ConfigError, match="geometry.order"):
+        load_link_spec(path)
+    wf = load_workflow(_write(tmp_path, FOURBAR.replace("    mass: 3.0", "    mass: 1.0e+308")))
+    with pytest.raises(ConfigError, match="overflow") as exc:
+        build_machine(wf, tmp_path / "links")
+    assert str(exc.value).startswith(str(wf.path)) and "links.coupler" in str(exc.value)
+
+
+@pytest.mark.parametrize("value", ["oops", "true", "[1, 2]"])
+def test_a_bad_case_override_is_found_before_any_analysis_runs(tmp_path, value):
+    text = FOURBAR.replace("drivers.JA.theta.rate: 12.566370614359172",
+                           f"drivers.JA.theta.rate: {value}")
+    path = _write(tmp_path, text)
+    calls = []
+    import pipeline.workflow.run as run_mod
+
+    real = run_mod.run_analysis
+    run_mod.run_analysis = lambda *a, **k: calls.append(a) or real(*a, **k)
+    try:
+        with pytest.raises(ConfigError) as exc:
+            run_workflow(path, out_root=tmp_path / "out", cache_dir=tmp_path / "links")
+    finally:
+        run_mod.run_analysis = real
+    msg = str(exc.value)
+    assert msg.startswith(f"{path}") and "fast" in msg and "rate" in msg, msg
+    assert not calls  # refused before the first analysis
