@@ -144,6 +144,7 @@ def _build_solid(geometry: SolidGeometry, name: str, options: Mapping[str, float
             for dim in sorted({d for d, _ in entities}):
                 tags = [t for d, t in entities if d == dim]
                 gmsh.model.addPhysicalGroup(dim, tags, name=gname)
+        check_mesh_budget(_geometry_volume(gmsh), geometry.mesh_size, geometry.order, where)
         _set_mesh_options(gmsh, options, geometry.mesh_size, geometry.order)
         gmsh.model.mesh.generate(3)
         if geometry.order == 2:
@@ -158,6 +159,50 @@ def _build_solid(geometry: SolidGeometry, name: str, options: Mapping[str, float
                     boundary={face: boundary_faces(tets)}, groups=group_nodes, cad=cad,
                     source=f"gmsh:{geometry.recipe}" + (f":{geometry.path}"
                                                         if geometry.path else ""))
+
+
+#: tetrahedra per (volume / mesh_size^3) (6.1-6.3 on a 0.4 m bar, 7.0 on the lift arm, 11
+#: on a slender bar: below the low end, so that an estimate never refuses a mesh that fits)
+TETS_PER_SIZE_CUBE = 5.0
+#: memory of the reduction per FE degree of freedom, bytes (495 000 DOF took 7.6 GB:
+#: ~15 kB; the low end again)
+BYTES_PER_DOF = 10_000
+
+
+def estimated_dof(volume: float, size: float, order: int) -> float:
+    """Degrees of freedom of a solid mesh of ``volume`` m^3 at ``size`` m, before meshing
+    (a low estimate): ~5 tetrahedra per size^3; P2 meshes have ~1.9-2.1 nodes per
+    tetrahedron, P1 ~1/5."""
+    tets = TETS_PER_SIZE_CUBE * volume / size ** 3
+    return 3.0 * tets * (1.9 if order == 2 else 0.2)
+
+
+def check_mesh_budget(volume: float, size: float, order: int, where: str,
+                      available: int | None = None) -> None:
+    """MeshError, before gmsh runs, when the estimated mesh would need more memory than
+    the machine has available (``available`` bytes; default: asked of the system)."""
+    from pipeline.core.resources import available_memory
+
+    dof = estimated_dof(volume, size, order)
+    need = dof * BYTES_PER_DOF
+    have = available_memory() if available is None else available
+    if have is not None and need > have:
+        raise MeshError(f"{where}: mesh_size {size:g} m on a volume of {volume:.4g} m^3 would "
+                        f"give ~{dof:.3g} degrees of freedom and need ~{need / 2**30:.3g} GB; "
+                        f"this machine has {have / 2**30:.3g} GB available: use a larger "
+                        "mesh_size")
+
+
+def _geometry_volume(gmsh) -> float:
+    """Volume of the model's solids, m^3 (the OCC kernel's; else their bounding box)."""
+    vol = 0.0
+    for dim, tag in gmsh.model.getEntities(3):
+        try:
+            vol += abs(gmsh.model.occ.getMass(dim, tag))
+        except Exception:  # built-in kernel: no mass; the bounding box bounds it
+            x0, y0, z0, x1, y1, z1 = gmsh.model.getBoundingBox(dim, tag)
+            vol += (x1 - x0) * (y1 - y0) * (z1 - z0)
+    return vol
 
 
 def _set_mesh_options(gmsh, options: Mapping[str, float], size: float, order: int) -> None:
@@ -297,9 +342,19 @@ def boundary_faces(tets: np.ndarray) -> np.ndarray:
     return faces[counts[inverse] == 1]
 
 
+#: most elements of a beam link (a 6-DOF-per-node model: 6e6 DOF)
+MAX_BEAM_ELEMENTS = 1_000_000
+
+
 def _build_beam(geometry: BeamGeometry, name: str) -> MeshData:
     where = f"link {name!r}"
     pts = geometry.points
+    lengths = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    expected = np.ceil(lengths / geometry.element_size - 1e-9)
+    if expected.sum() > MAX_BEAM_ELEMENTS:
+        raise MeshError(f"{where}: element_size {geometry.element_size:g} m on "
+                        f"{lengths.sum():.4g} m of beam would give {expected.sum():.3g} "
+                        f"elements, more than {MAX_BEAM_ELEMENTS}: use a larger element_size")
     with gmsh_session(name) as gmsh:
         geo = gmsh.model.geo
         ptags = [geo.addPoint(*map(float, p), geometry.element_size) for p in pts]
@@ -312,6 +367,10 @@ def _build_beam(geometry: BeamGeometry, name: str) -> MeshData:
         members = [np.asarray(gmsh.model.mesh.getElements(1, t)[2][0], np.int64).reshape(-1, 2)
                    if gmsh.model.mesh.getElements(1, t)[2] else np.empty((0, 2), np.int64)
                    for t in ltags]
+    for i, (conn, n) in enumerate(zip(members, expected)):
+        if conn.shape[0] < n:  # gmsh gives up silently on sizes it cannot honour
+            raise MeshError(f"{where}: gmsh made {conn.shape[0]} elements on member {i} where "
+                            f"element_size {geometry.element_size:g} m asks for {n:.0f}")
     return _beam_mesh(geometry, members, xyz, where)
 
 
