@@ -199,7 +199,8 @@ def _geometry_volume(gmsh) -> float:
     for dim, tag in gmsh.model.getEntities(3):
         try:
             vol += abs(gmsh.model.occ.getMass(dim, tag))
-        except Exception:  # built-in kernel: no mass; the bounding box bounds it
+        except Exception:  # noqa: BLE001 - gmsh raises plain Exception (built-in kernel: no
+            # mass; the bounding box bounds it)
             x0, y0, z0, x1, y1, z1 = gmsh.model.getBoundingBox(dim, tag)
             vol += (x1 - x0) * (y1 - y0) * (z1 - z0)
     return vol
