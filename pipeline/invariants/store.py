@@ -1,8 +1,9 @@
 """Save and load :class:`ReducedLink` artifacts (``.npz``) with integrity checks.
 
-The file carries a format version and a SHA-256 digest of its arrays; a
-truncated, corrupted or foreign file raises :class:`ArtifactError` and is
-never half-used. Writes are atomic.
+The file carries a format version and a SHA-256 digest of everything the loader
+uses (the arrays and the header's names, kinds and provenance); a truncated,
+corrupted, edited or foreign file raises :class:`ArtifactError` and is never
+half-used. Writes are atomic.
 """
 
 from __future__ import annotations
@@ -19,14 +20,17 @@ from pipeline.core.errors import ArtifactError
 from pipeline.invariants.reduced_link import FrameModes, ReducedLink
 
 FORMAT = "pipeline.ReducedLink"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: the digest covers the header
 
 _ARRAYS = ("body_pose", "C", "Cp", "Cpp", "modal_stiffness", "modal_mass",
            "frequencies_hz", "nodes", "cells", "surface", "mode_shapes")
 
 
-def _digest(arrays: dict[str, np.ndarray]) -> str:
+def _digest(arrays: dict[str, np.ndarray], header: dict) -> str:
+    """SHA-256 of the arrays and of the header's fields other than the digest itself."""
     h = hashlib.sha256()
+    fields = {k: v for k, v in header.items() if k != "digest"}
+    h.update(json.dumps(fields, sort_keys=True, default=str).encode())
     for key in sorted(arrays):
         a = np.ascontiguousarray(arrays[key])
         h.update(key.encode())
@@ -57,8 +61,8 @@ def save_reduced_link(link: ReducedLink, path: str | Path) -> Path:
         "mode_kinds": list(link.mode_kinds),
         "frames": [[f.name, f.kind] for f in link.frames],
         "meta": dict(link.meta),
-        "digest": _digest(arrays),
     }
+    header["digest"] = _digest(arrays, json.loads(json.dumps(header, default=str)))
     return save_npz_atomic(path, header=np.array(json.dumps(header)), **arrays)
 
 
@@ -75,7 +79,7 @@ def load_reduced_link(path: str | Path) -> ReducedLink:
         raise ArtifactError(f"{path}: unreadable reduced-link artifact ({exc})") from exc
     if header.get("format") != FORMAT or header.get("version") != FORMAT_VERSION:
         raise ArtifactError(f"{path}: not a {FORMAT} v{FORMAT_VERSION} file")
-    if _digest(arrays) != header.get("digest"):
+    if _digest(arrays, header) != header.get("digest"):
         raise ArtifactError(f"{path}: content digest mismatch (corrupted artifact)")
     frames = tuple(
         FrameModes(name, arrays["frame_pose"][i], arrays["frame_phi"][i],

@@ -44,6 +44,32 @@ def test_tampered_array_fails_digest(tmp_path):
         load_reduced_link(path)
 
 
+@pytest.mark.parametrize("edit", ["frame name", "frame kind", "mode kind", "name", "meta"])
+def test_an_edited_header_fails_digest(tmp_path, edit):
+    """The header's frame names and kinds are what the loader uses: an edit was used
+    silently before (the digest covered only the arrays)."""
+    import json
+
+    path = save_reduced_link(_random_link(), tmp_path / "arm.npz")
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    header = json.loads(str(arrays["header"]))
+    if edit == "frame name":
+        header["frames"][1][0] = "renamed"
+    elif edit == "frame kind":
+        header["frames"][2][1] = "interface"
+    elif edit == "mode kind":
+        header["mode_kinds"][0] = "constraint"
+    elif edit == "name":
+        header["name"] = "other"
+    else:
+        header["meta"]["settings"] = {"n_modes": 9}
+    arrays["header"] = np.array(json.dumps(header))
+    np.savez_compressed(path, **arrays)
+    with pytest.raises(ArtifactError, match="digest"):
+        load_reduced_link(path)
+
+
 def test_body_frame_congruence_matches_direct_integration():
     """Moments of a point cloud transformed congruently equal moments of moved points."""
     rng = np.random.default_rng(1)
