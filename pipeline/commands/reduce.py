@@ -20,11 +20,17 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from pipeline.core.errors import MeshError, ModalError, PipelineError
     from pipeline.workflow.link_build import reduce_spec
-    from pipeline.workflow.link_spec import load_link_spec
+    from pipeline.workflow.link_spec import load_link_spec_lines, locate
 
-    spec = load_link_spec(args.spec)
-    link, status = reduce_spec(spec, args.spec.parent, args.out, args.rebuild)
+    spec, lines = load_link_spec_lines(args.spec)
+    try:
+        link, status = reduce_spec(spec, args.spec.parent, args.out, args.rebuild)
+    except PipelineError as exc:  # name the spec's file, line and field
+        default = ("geometry",) if isinstance(exc, MeshError) else \
+            ("modes",) if isinstance(exc, ModalError) else ()
+        raise type(exc)(locate(str(exc), spec, args.spec, lines, default)) from None
     summary = {**link.summary(), "artifact": str(args.out / f"{link.name}.npz"),
                "cache": status, "mesh_quality": dict(link.meta.get("mesh", {}))}
     if args.render:

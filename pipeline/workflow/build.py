@@ -29,7 +29,7 @@ from pipeline.workflow.link_spec import LinkSpec
 from pipeline.workflow.load import Workflow
 from pipeline.workflow.overrides import apply_overrides
 from pipeline.workflow.schema import inertia_matrix
-from pipeline.workflow.yaml_io import config_error, load_yaml
+from pipeline.workflow.yaml_io import _yaml_path, error_lines, load_yaml
 
 #: fields of force elements that name a marker as "link.frame"
 MARKER_FIELDS = ("marker", "marker_a", "marker_b")
@@ -104,7 +104,19 @@ def _link_spec(wf: Workflow, name: str, entry) -> tuple[LinkSpec, Path]:
     try:
         return LinkSpec.model_validate(data), base
     except ValidationError as exc:
-        raise config_error(exc, path, data, lines) from None
+        # an error in an overridden value is the workflow's line, not the spec's
+        over = {tuple(k.split(".")): k for k in entry.spec_overrides}
+        msgs, rest = [], []
+        for err in exc.errors():
+            loc = _yaml_path(tuple(err["loc"]), data)
+            key = next((k for o, k in over.items()
+                        if loc and (loc[:len(o)] == o or o[:len(loc)] == loc)), None)
+            if key is None:
+                rest.append(err)
+            else:
+                msg = err["msg"].removeprefix("Value error, ")
+                msgs.append(f"{wf.where('links', name, 'spec_overrides', key)}: {msg}")
+        raise ConfigError("\n".join(msgs + error_lines(rest, path, data, lines))) from None
 
 
 def kept_modes(reduced, modes, plane: str | None, tol: float = 1e-2) -> tuple[int, ...]:

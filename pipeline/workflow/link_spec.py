@@ -7,6 +7,7 @@ the modes to keep. Fields are SI units. Unknown keys are rejected.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -20,7 +21,7 @@ from pydantic import (
     model_validator,
 )
 
-from pipeline.workflow.yaml_io import config_error, load_yaml
+from pipeline.workflow.yaml_io import _fmt, config_error, load_yaml
 
 Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 Mat3 = Annotated[list[Vec3], Field(min_length=3, max_length=3)]
@@ -178,8 +179,30 @@ class LinkSpec(Strict):
 
 def load_link_spec(path: str | Path) -> LinkSpec:
     """Read and validate a link spec YAML; ConfigError names file, line and field."""
+    return load_link_spec_lines(path)[0]
+
+
+def load_link_spec_lines(path: str | Path) -> tuple[LinkSpec, dict]:
+    """(LinkSpec, YAML path -> line) of a link spec file (see :func:`locate`)."""
     data, lines = load_yaml(path)
     try:
-        return LinkSpec.model_validate(data)
+        return LinkSpec.model_validate(data), lines
     except ValidationError as exc:
         raise config_error(exc, path, data, lines) from None
+
+
+def locate(message: str, spec: LinkSpec, path: str | Path, lines: dict,
+           default: tuple = ()) -> str:
+    """``file:line: yaml.path: message`` for an error met while meshing or reducing
+    ``spec``: the interface or marker the message names, else ``default`` (e.g.
+    ("geometry",) for a meshing error)."""
+    key: tuple = default
+    m = re.search(r"(interface|marker) '([^']+)'", message)
+    if m:
+        items = spec.interfaces if m.group(1) == "interface" else spec.markers
+        names = [x.name for x in items]
+        if m.group(2) in names:
+            key = (m.group(1) + "s", names.index(m.group(2)))
+    while key and key not in lines:
+        key = key[:-1]
+    return f"{path}:{lines.get(key, 1)}: {_fmt(key)}: {message}"

@@ -145,11 +145,10 @@ def _yaml_path(loc: tuple, data: Any) -> PathKey:
     return tuple(path)
 
 
-def config_error(exc: ValidationError, source: str | Path, data: Any,
-                 lines: dict[PathKey, int]) -> ConfigError:
-    """One ConfigError listing every problem as ``file:line: yaml.path: message``."""
+def error_lines(errors, source: str | Path, data: Any, lines: dict[PathKey, int]) -> list[str]:
+    """``file:line: yaml.path: message`` of each pydantic error dict."""
     msgs = []
-    for err in exc.errors():
+    for err in errors:
         path = _yaml_path(tuple(err["loc"]), data)
         line = lines.get(path, lines.get((), 1))
         msg = err["msg"].removeprefix("Value error, ")
@@ -158,4 +157,10 @@ def config_error(exc: ValidationError, source: str | Path, data: Any,
         elif err["type"] == "missing":
             path = path + tuple(p for p in err["loc"][len(path):] if isinstance(p, str))[-1:]
         msgs.append(f"{source}:{line}: {_fmt(path)}: {msg}")
-    return ConfigError("\n".join(msgs))
+    return msgs
+
+
+def config_error(exc: ValidationError, source: str | Path, data: Any,
+                 lines: dict[PathKey, int]) -> ConfigError:
+    """One ConfigError listing every problem as ``file:line: yaml.path: message``."""
+    return ConfigError("\n".join(error_lines(exc.errors(), source, data, lines)))

@@ -522,3 +522,38 @@ def test_a_bad_case_override_is_found_before_any_analysis_runs(tmp_path, value):
     msg = str(exc.value)
     assert msg.startswith(f"{path}") and "fast" in msg and "rate" in msg, msg
     assert not calls  # refused before the first analysis
+
+
+def test_a_bad_spec_override_is_blamed_on_its_own_line(tmp_path):
+    """It was reported against a valid line of the link spec file."""
+    from pipeline.workflow.build import build_machine
+
+    root = Path(__file__).resolve().parents[2]
+    text = (root / "workflows" / "double_pendulum.yaml").read_text()
+    text = text.replace("spec: ../meshes/pendulum_bar.yaml\n    modes: 3\n    plane: xy\n  lower:",
+                        f"spec: {root}/meshes/pendulum_bar.yaml\n"
+                        "    spec_overrides: {geometry.mesh_size: -1.0}\n"
+                        "    modes: 3\n    plane: xy\n  lower:", 1)
+    path = tmp_path / "dp.yaml"
+    path.write_text(text)
+    line = text.splitlines().index("    spec_overrides: {geometry.mesh_size: -1.0}") + 1
+    with pytest.raises(ConfigError) as exc:
+        build_machine(load_workflow(path), tmp_path / "links")
+    msg = str(exc.value)
+    assert msg.startswith(f"{path}:{line}: links.upper.spec_overrides.geometry.mesh_size: "), msg
+    assert "greater than 0" in msg
+
+
+def test_pipeline_reduce_names_the_spec_line_of_a_failing_interface(tmp_path):
+    root = Path(__file__).resolve().parents[2]
+    text = (root / "meshes" / "al_bar.yaml").read_text()
+    text = text.replace("name: end_xL", "name: end_x9").replace("mesh_size: 0.00205",
+                                                                "mesh_size: 0.01")
+    spec = tmp_path / "bar.yaml"
+    spec.write_text(text)
+    line = text.splitlines().index("    selector: {type: group, name: end_x9}")  # 1-based item
+    r = subprocess.run([sys.executable, "-m", "pipeline", "reduce", str(spec), "--out",
+                        str(tmp_path / "links")], capture_output=True, text=True, check=False)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.stderr.startswith(f"error: {spec}:{line}: interfaces[1]: "), r.stderr
+    assert "end_x9" in r.stderr
