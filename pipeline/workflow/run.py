@@ -19,6 +19,8 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from pipeline.core.atomic import folder_lock, replace_dir
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.core.progress import stage
@@ -134,23 +136,18 @@ def _case_result(wf: Workflow, case_set, label, analysis: str, cache_dir, rebuil
 
 
 def _run_parallel(wf, base, tasks, cache, machines, cache_dir, rebuild, workers, timings):
-    """Analysis cases in ``workers`` processes (dask); machines for the outputs are rebuilt
-    here from the cached reductions (a System holds mapping proxies, which do not pickle)."""
-    import dask
+    """Analysis cases in ``workers`` processes; machines for the outputs are rebuilt here
+    from the cached reductions (a System holds mapping proxies, which do not pickle). Each
+    case's result is kept as it arrives: a worker that dies (killed, out of memory) costs
+    only the cases it had not finished, which come back failed with the reason."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
 
-    jobs = [dask.delayed(_case_result)(wf, case.set if case else {}, case.label if case else "",
-                                       a.name, cache_dir, rebuild) for a, case in tasks]
     t0 = time.perf_counter()
-    with stage(f"{wf.name}: {len(jobs)} analysis cases on {workers} processes"):
-        try:
-            done = dask.compute(*jobs, scheduler="processes", num_workers=workers)
-        except Exception as exc:
-            # dask re-raises a worker's error with its traceback in the message; the
-            # original (each of ours pickles) says it in one line
-            original = getattr(exc, "exception", None)
-            if isinstance(original, BaseException):
-                raise original from None
-            raise
+    with stage(f"{wf.name}: {len(tasks)} analysis cases on {workers} processes"), \
+            ProcessPoolExecutor(max_workers=workers,
+                                mp_context=multiprocessing.get_context("spawn")) as pool:
+        done = collect_cases(pool, wf, base, tasks, cache_dir, rebuild)
     timings["analyses (parallel)"] = time.perf_counter() - t0
     results = {}
     for (a, case), r in zip(tasks, done):
@@ -158,6 +155,40 @@ def _run_parallel(wf, base, tasks, cache, machines, cache_dir, rebuild, workers,
         machines[m.workflow.case] = m
         results.setdefault(a.name, []).append(r)
     return results
+
+
+def collect_cases(pool, wf, base, tasks, cache_dir, rebuild) -> list[AnalysisResult]:
+    """Submit every (analysis, case) of ``tasks`` to ``pool`` (a concurrent.futures
+    executor) and gather the results in order; a case whose worker died is a failed
+    result naming the cause. An error raised by a case (bad input) is raised here."""
+    from concurrent.futures import as_completed
+    from concurrent.futures.process import BrokenProcessPool
+
+    futures = {pool.submit(_case_result, wf, case.set if case else {},
+                           case.label if case else "", a.name, cache_dir, rebuild): k
+               for k, (a, case) in enumerate(tasks)}
+    done: list = [None] * len(tasks)
+    for fut in as_completed(futures):
+        k = futures[fut]
+        try:
+            done[k] = fut.result()
+        except BrokenProcessPool:
+            a, case = tasks[k]
+            done[k] = lost_case(base, a, case.label if case else "",
+                                "its worker process died (killed, or out of memory) before "
+                                "the case finished")
+            logger.warning("%s: analysis %r%s: %s", wf.name, a.name,
+                           f" case {case.label!r}" if case else "", done[k].message)
+    return done
+
+
+def lost_case(base: Machine, a, label: str, why: str) -> AnalysisResult:
+    """A failed, empty result of analysis spec ``a`` (case ``label``) saying ``why``."""
+    n = base.mechanism.n
+    empty = np.empty((0, n))
+    return AnalysisResult(name=a.name, type=a.type, case=label, success=False, message=why,
+                          coordinates=tuple(base.mechanism.coordinates), t=np.empty(0),
+                          q=empty, qd=empty, qdd=empty)
 
 
 def _remove_stale(out_root: Path, name: str) -> None:
@@ -192,7 +223,7 @@ def run_workflow(workflow: str | Path | Workflow, *, out_root: str | Path = "out
     cache_dir : reduced-link cache (default ``out_root/links``).
     rebuild : ignore cached reduced links.
     outputs : write plots, renders and exports (False: results only, for tests).
-    workers : processes for the analysis cases (dask; 1 runs them in this process).
+    workers : processes for the analysis cases (1 runs them in this process).
 
     Raises
     ------

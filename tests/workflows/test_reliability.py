@@ -557,3 +557,37 @@ def test_pipeline_reduce_names_the_spec_line_of_a_failing_interface(tmp_path):
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert r.stderr.startswith(f"error: {spec}:{line}: interfaces[1]: "), r.stderr
     assert "end_x9" in r.stderr
+
+
+def test_cases_finished_before_a_worker_died_are_kept(tmp_path):
+    """A worker killed mid-study (BrokenProcessPool) used to throw away every case; the
+    collection keeps what finished and marks the rest failed with the reason."""
+    from concurrent.futures import Future
+    from concurrent.futures.process import BrokenProcessPool
+
+    from pipeline.workflow.build import build_machine
+    from pipeline.workflow.run import collect_cases
+
+    wf = load_workflow(_write(tmp_path))
+    base = build_machine(wf, tmp_path / "links")
+    tasks = [(wf.spec.analyses[0], c) for c in wf.spec.analyses[0].cases]
+
+    class DyingPool:
+        """Runs the first case here; the second one's worker 'dies'."""
+
+        def __init__(self):
+            self.n = 0
+
+        def submit(self, fn, *args):
+            fut = Future()
+            if self.n == 0:
+                fut.set_result(fn(*args))
+            else:
+                fut.set_exception(BrokenProcessPool("A process in the pool was terminated"))
+            self.n += 1
+            return fut
+
+    slow, fast = collect_cases(DyingPool(), wf, base, tasks, tmp_path / "links", False)
+    assert slow.success and slow.case == "slow" and len(slow.t) == 73
+    assert not fast.success and fast.case == "fast" and fast.verdict == "partial"
+    assert "worker process died" in fast.message and len(fast.t) == 0
