@@ -12,8 +12,6 @@ import copy
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-import yaml
-
 from pipeline.core.errors import ConfigError
 
 
@@ -22,15 +20,11 @@ def parse_assignment(text: str) -> tuple[str, Any]:
     path, sep, raw = text.partition("=")
     if not sep or not path.strip():
         raise ConfigError(f"--set {text!r}: expected path=value, e.g. analyses.swing.t_end=0.5")
-    try:
-        value = yaml.safe_load(raw) if raw.strip() else None
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"--set {text!r}: value is not a YAML scalar or list: {exc}") from None
-    if isinstance(value, str):
-        from pipeline.workflow.yaml_io import _FLOAT_12
+    from pipeline.workflow.yaml_io import parse_yaml_text
 
-        if _FLOAT_12.fullmatch(value.strip()):  # YAML 1.2 float such as 4.8e5
-            value = float(value)
+    # plain data with the file loader's limits (no tags, no alias bombs); YAML 1.2 floats
+    # such as 4.8e5 are numbers
+    value = parse_yaml_text(raw, f"--set {text[:80]!r}") if raw.strip() else None
     return path.strip(), value
 
 

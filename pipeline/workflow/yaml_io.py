@@ -83,6 +83,20 @@ class _Walk:
         return value
 
 
+def parse_yaml_text(text: str, source: str) -> Any:
+    """Plain YAML data from a string (a ``--set`` value) with the file loader's limits and
+    tags; ``source`` names it in errors. Empty text is None."""
+    if len(text) > MAX_BYTES:
+        raise ConfigError(f"{source}: longer than {MAX_BYTES // 2**20} MB")
+    try:
+        node = yaml.compose(text, Loader=yaml.SafeLoader)
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{source}: invalid YAML: {getattr(exc, 'problem', exc)}") from None
+    except RecursionError:
+        raise ConfigError(f"{source}: invalid YAML: nested too deeply") from None
+    return None if node is None else _Walk(source)(node, ())
+
+
 def load_yaml(path: str | Path) -> tuple[Any, dict[PathKey, int]]:
     """Load a YAML file safely; return ``(data, lines)`` with ``lines[path] = line``.
 

@@ -591,3 +591,16 @@ def test_cases_finished_before_a_worker_died_are_kept(tmp_path):
     assert slow.success and slow.case == "slow" and len(slow.t) == 73
     assert not fast.success and fast.case == "fast" and fast.verdict == "partial"
     assert "worker process died" in fast.message and len(fast.t) == 0
+
+
+def test_set_values_are_plain_data_with_the_same_limits(tmp_path):
+    from pipeline.workflow.overrides import parse_assignment
+
+    assert parse_assignment("analyses.turn.t_end=4.8e5") == ("analyses.turn.t_end", 480000.0)
+    assert parse_assignment("name=x") == ("name", "x")
+    with pytest.raises(ConfigError, match="not allowed"):
+        parse_assignment("name=!!python/object/apply:os.system ['touch ran']")
+    with pytest.raises(ConfigError, match="more than"):
+        parse_assignment("x=" + _bomb().replace("\n", ", ").replace("a0:", "{a0:")
+                         .rstrip(", ") + "}")
+    assert not (tmp_path / "ran").exists()
