@@ -112,10 +112,7 @@ def _plot(folder: Path, wf, machines, results, idx: int, p, skipped) -> str | No
             raise wf.error("outputs", "plots", idx, "cases",
                            msg=f"expected case labels among {known}, got {bad}")
         rs = [r for r in rs if r.case in p.cases]
-    for r in rs:
-        if not has_data(r):
-            skipped.append(f"plot {p.name!r}: left out: {_why(r)}")
-    rs = [r for r in rs if has_data(r)]
+    rs = _with_data(rs, f"plot {p.name!r}", skipped)
     if not rs:
         return None
     panels = []
@@ -208,10 +205,7 @@ def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
     rs = results[rs_spec.analysis]
     path = folder / f"{rs_spec.name}.png"
     if rs_spec.case is None and len(rs) > 1 and rs[0].type == "static":
-        for r in rs:
-            if not has_data(r):
-                skipped.append(f"render {rs_spec.name!r}: left out: {_why(r)}")
-        rs = [r for r in rs if has_data(r)]
+        rs = _with_data(rs, f"render {rs_spec.name!r}", skipped)
         if not rs:
             return None
         m = machines[rs[0].case]
@@ -339,6 +333,12 @@ def has_data(r) -> bool:
     if len(r.t) == 0:
         return False
     return r.type != "linearised" or "frequencies_hz" in r.extra
+
+
+def _with_data(rs: list, output: str, skipped: list[str]) -> list:
+    """The results of ``rs`` that hold data; a note in ``skipped`` for each left out."""
+    skipped += [f"{output}: left out: {_why(r)}" for r in rs if not has_data(r)]
+    return [r for r in rs if has_data(r)]
 
 
 def _what(r) -> str:
