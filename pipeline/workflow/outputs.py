@@ -82,7 +82,7 @@ def write_exports(folder: Path, wf, machines, results, skipped: list[str]) -> li
     files = []
     ex = wf.spec.outputs.exports
     for name, rs in results.items():
-        i, a = _analysis_spec(wf, name)
+        _, a = _analysis_spec(wf, name)
         for r in rs:
             mech = machines[r.case].mechanism
             stem = _stem(r)
@@ -263,7 +263,7 @@ def _vtu(folder, machines, results) -> list[str]:
     from pipeline.post.vtk_series import write_vtk_series
 
     files = []
-    for name, rs in results.items():
+    for rs in results.values():
         for r in rs:
             if len(r.t) < 1:
                 continue
