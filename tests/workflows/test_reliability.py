@@ -355,14 +355,20 @@ def test_an_internal_error_is_one_line_unless_debug(tmp_path, monkeypatch, capsy
 
 
 def test_an_error_in_a_worker_arrives_as_the_original_one_line_error(tmp_path):
-    from pipeline.core.errors import PipelineError
+    """An analysis' own initial values that the loops cannot honour are found when the
+    analysis starts, in its worker process: the error arrives as raised there, one line."""
+    from test_workflow_trust import FREE
 
-    text = FOURBAR.replace("{label: fast, set: {drivers.JA.theta.rate: 12.566370614359172}}",
-                           "{label: fast, set: {links.coupler.frames.C.origin: [30, 0, 0]}}")
-    with pytest.raises(PipelineError) as exc:
-        run_workflow(_write(tmp_path, text), out_root=tmp_path / "out",
-                     cache_dir=tmp_path / "links", outputs=False, workers=2)
-    assert "Traceback" not in str(exc.value) and "fast" in str(exc.value)
+    text = FREE.replace("    t_end: 0.5\n    outputs: 11", "    t_end: 0.5\n    outputs: 11\n"
+                        "    initial: {velocities: {JA.theta: 4.0, JD.theta: 9.0}}\n"
+                        "    cases:\n      - {label: a, set: {}}\n      - {label: b, set: {}}")
+    path = _write(tmp_path, text)
+    with pytest.raises(ConfigError) as exc:
+        run_workflow(path, out_root=tmp_path / "out", cache_dir=tmp_path / "links",
+                     outputs=False, workers=2)
+    msg = str(exc.value)
+    assert "Traceback" not in msg and "\n" not in msg
+    assert msg.startswith(f"{path}:") and "analyses[0].initial.velocities" in msg
     assert not (tmp_path / "out" / "fourbar").exists()
 
 
