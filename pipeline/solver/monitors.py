@@ -38,8 +38,10 @@ class Limits:
 
     energy: float = 1e-2
     closure: float = 1e-6
-    deformation: float = 0.05
-    rotation: float = 0.1
+    # the linear limit of Adams Solver's flexible-body check (10 % of a characteristic
+    # length), and the tip rotation of a cantilever at that deflection (1.5 x 0.1 rad)
+    deformation: float = 0.10
+    rotation: float = 0.15
     min_step: float = 1e-9
 
     def __post_init__(self):

@@ -251,9 +251,9 @@ class ChecksSpec(Strict):
     energy: float = Field(1e-2, gt=0, description="largest change of the energy balance, "
                                                   "relative to the energy the run exchanged")
     closure: float = Field(1e-6, gt=0, description="largest loop-closure residual, m or rad")
-    deformation: float = Field(0.05, gt=0, description="largest elastic displacement of a "
+    deformation: float = Field(0.10, gt=0, description="largest elastic displacement of a "
                                                        "flexible link relative to its size")
-    rotation: float = Field(0.1, gt=0, description="largest elastic frame rotation, rad")
+    rotation: float = Field(0.15, gt=0, description="largest elastic frame rotation, rad")
     min_step: float = Field(1e-9, gt=0, description="smallest step relative to the span")
 
 

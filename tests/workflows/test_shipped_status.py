@@ -1,0 +1,28 @@
+"""Every shipped workflow finishes with status ok (no trust check trips) in its quick form:
+what a new user runs first must not look suspect."""
+
+from __future__ import annotations
+
+import pytest
+
+
+@pytest.mark.parametrize("name", ["double_pendulum", "front_loader", "mobile_crane",
+                                  "tractor_trailer"])
+def test_shipped_workflow_is_ok(quick_run, name):
+    man = quick_run(name).manifest
+    bad = {a: [(c["case"], c["verdict"], c["warnings"] or c["message"]) for c in cases
+               if c["verdict"] != "ok"] for a, cases in man["analyses"].items()}
+    assert man["status"] == "ok", {a: v for a, v in bad.items() if v}
+
+
+@pytest.mark.slow
+def test_the_main_job_is_ok_in_full(tmp_path):
+    """The README's first command runs the full double pendulum: its flexible swing bends
+    the bars by 8 % of their length, inside the linear limit (10 %)."""
+    from conftest import WORKFLOWS
+
+    from pipeline.workflow import run_workflow
+
+    res = run_workflow(WORKFLOWS / "double_pendulum.yaml", out_root=tmp_path,
+                       cache_dir=tmp_path / "links", outputs=False)
+    assert res.manifest["status"] == "ok", res.manifest["analyses"]
