@@ -265,7 +265,8 @@ class DynamicAnalysis(_Timed):
         "auto", description="closed loops: dae (every coordinate with multipliers; default) "
                             "or partitioned (independent coordinates, the seed's method)")
     max_steps: int = Field(1_000_000, ge=1, description="step budget")
-    max_wall: float | None = Field(None, gt=0, description="wall-clock budget, s")
+    max_wall: float | None = Field(3600.0, gt=0, description="wall-clock budget, s (null: "
+                                                             "none)")
     checks: ChecksSpec = Field(default_factory=ChecksSpec)
     rtol: float = Field(1e-8, gt=0)
     atol: float = Field(1e-10, gt=0)

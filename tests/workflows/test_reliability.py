@@ -610,3 +610,14 @@ def test_set_values_are_plain_data_with_the_same_limits(tmp_path):
         parse_assignment("x=" + _bomb().replace("\n", ", ").replace("a0:", "{a0:")
                          .rstrip(", ") + "}")
     assert not (tmp_path / "ran").exists()
+
+
+def test_a_dynamic_analysis_has_step_and_wall_budgets_by_default(tmp_path):
+    from test_workflow_trust import FREE
+
+    wf = load_workflow(_write(tmp_path, FREE))
+    a = wf.spec.analyses[0]
+    assert a.max_steps == 1_000_000 and a.max_wall == 3600.0
+    wf = load_workflow(_write(tmp_path, FREE.replace("    outputs: 11", "    outputs: 11\n"
+                                                     "    max_wall: null")))
+    assert wf.spec.analyses[0].max_wall is None
