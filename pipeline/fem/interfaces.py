@@ -323,10 +323,20 @@ def _select(spec: InterfaceSpec, model: FemModel, candidates: np.ndarray,
     try:
         nodes = np.asarray(select(model.nodes, candidates, groups), dtype=np.int64)
     except ConfigError as exc:
-        raise ConfigError(f"{where}: selector {spec.selector!r}: {exc}") from exc
+        raise ConfigError(f"{where}: selector {spec.selector!r}: {exc}; "
+                          f"{mesh_extent(model.nodes)}") from exc
     if nodes.size == 0:
-        raise ConfigError(f"{where}: selector {spec.selector!r} matched no nodes")
+        raise ConfigError(f"{where}: selector {spec.selector!r} matched no nodes; "
+                          f"{mesh_extent(model.nodes)}")
     return nodes
+
+
+def mesh_extent(points: np.ndarray) -> str:
+    """Where the mesh is, for errors about geometry: its bounding box in m (a selector that
+    finds nothing is often a unit slip, such as a CAD file in millimetres read as metres)."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    return "the mesh spans " + ", ".join(f"{a} [{lo[k]:.4g}, {hi[k]:.4g}]"
+                                         for k, a in enumerate("xyz")) + " m"
 
 
 def _as_spec(raw, link: str) -> InterfaceSpec:

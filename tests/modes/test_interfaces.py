@@ -154,3 +154,12 @@ def test_beam_interface_must_be_one_node():
                             model.stiffness[:24, :24], model.mass[:24, :24])
     with pytest.raises(ConfigError, match="a beam interface is exactly one node, got 2"):
         make_interface(beam_like, "end", [0, 0, 0], None, "rbe2", [0, 1])
+
+
+def test_a_selector_that_finds_nothing_says_where_the_mesh_is(bar):
+    """A model drawn in one unit and read in another selects nothing; the error shows the
+    mesh's bounding box so the slip is visible."""
+    lo, hi = bar.nodes.min(axis=0), bar.nodes.max(axis=0)
+    with pytest.raises(ConfigError, match=rf"matched no nodes; the mesh spans x "
+                                          rf"\[{lo[0]:.4g}, {hi[0]:.4g}\], y"):
+        resolve_interfaces(bar, [("pin", XPlane(400.0), [400.0, 0, 0])])
