@@ -49,7 +49,8 @@ def _child(node: Any, parts: list[str], where: str) -> tuple[Any, Any, int]:
 
 
 def set_path(data: Any, path: str, value: Any, where: str = "--set") -> None:
-    """Set ``path`` in ``data`` (in place). The last key may be new; inner ones must exist."""
+    """Set ``path`` in ``data`` (in place). Missing (or empty) mappings on the way are
+    created, as ``mkdir -p`` does; a misspelt key then meets the schema, which names it."""
     parts = [p for p in path.split(".")]
     if not all(parts):
         raise ConfigError(f"{where} {path}: empty path segment")
@@ -60,9 +61,8 @@ def set_path(data: Any, path: str, value: Any, where: str = "--set") -> None:
         if not parts:
             container[key] = copy.deepcopy(value)
             return
-        if isinstance(container, Mapping) and key not in container:
-            raise ConfigError(f"{where} {path}: {key!r} does not exist here; keys: "
-                              f"{sorted(container)}")
+        if isinstance(container, Mapping) and container.get(key) is None:
+            container[key] = {}
         node = container[key]
 
 

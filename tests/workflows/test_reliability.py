@@ -621,3 +621,12 @@ def test_a_dynamic_analysis_has_step_and_wall_budgets_by_default(tmp_path):
     wf = load_workflow(_write(tmp_path, FREE.replace("    outputs: 11", "    outputs: 11\n"
                                                      "    max_wall: null")))
     assert wf.spec.analyses[0].max_wall is None
+
+
+def test_set_creates_missing_mappings_and_the_schema_names_a_misspelt_key(tmp_path):
+    path = _write(tmp_path, FOURBAR)
+    wf = load_workflow(path, sets=["links.crank.shape.type=box",
+                                   "links.crank.shape.size=[1.0, 0.05, 0.05]"])
+    assert wf.spec.links["crank"].shape.size == [1.0, 0.05, 0.05]
+    with pytest.raises(ConfigError, match=r"links\.crank\.shap.*unknown key"):
+        load_workflow(path, sets=["links.crank.shap.type=box"])
