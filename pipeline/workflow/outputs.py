@@ -38,6 +38,13 @@ def export_csv(path: Path, r, mech, markers) -> None:
             cols[f"{link}.{frame}.{ax}_m"] = P[:, k]
     for name, f in r.forces.items():
         cols[f"force:{name}"] = f
+    reactions = r.extra.get("reactions") or ()
+    if len(reactions) == len(r.t):  # kinetostatic with reactions: true
+        for j, joint in enumerate(reactions[0].joints):
+            for what, unit, k in (("f", "N", 0), ("m", "N m", 1)):
+                V = np.array([(x.force, x.moment)[k][j] for x in reactions])
+                for c, ax in enumerate("xyz"):
+                    cols[f"reaction:{joint}.{what}{ax}_{unit.replace(' ', '')}"] = V[:, c]
     for name, e in r.energies.items():
         cols[f"energy:{name}_J"] = e
     with open(path, "w", newline="") as fh:

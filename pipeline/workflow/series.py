@@ -10,6 +10,9 @@ deflection:link.frame:z  elastic displacement of the marker, ground axes  m
 energy:total             kinetic, gravity, elastic, forces, dissipated,  J
                          driver_work, total (dynamic runs)
 driver_force:LCYL.d      force a driver/held coordinate applies          N, N m
+reaction:J1:fy           joint reaction on the child link at the joint   N, N m
+                         point, ground axes (fx fy fz mx my mz, force,
+                         moment: norms; kinetostatic with reactions)
 frequency                linearised natural frequencies (x: mode no.)    Hz
 =======================  ==============================================  ==========
 """
@@ -24,7 +27,9 @@ from pipeline.core.errors import ConfigError
 from pipeline.kinematics import evaluate_tree
 from pipeline.kinematics.poses import step_local
 
-KINDS = ("time", "q", "qd", "qdd", "marker", "deflection", "energy", "driver_force", "frequency")
+KINDS = ("time", "q", "qd", "qdd", "marker", "deflection", "energy", "driver_force",
+         "reaction", "frequency")
+REACTION_COMPONENTS = ("fx", "fy", "fz", "mx", "my", "mz", "force", "moment")
 _COMPONENT = {"x": 0, "y": 1, "z": 2}
 
 
@@ -108,10 +113,34 @@ def series(result, mech, spec: str) -> Series:
                               f"for {sorted(result.forces)}")
         unit = "N m" if _coordinate_unit(rest, 0) == "rad" else "N"
         return Series(np.asarray(result.forces[rest]), f"{rest} actuator force", unit)
+    if kind == "reaction":
+        return reaction_series(result, spec)
     f = result.extra.get("frequencies_hz")
     if f is None:
         raise ConfigError(f"series {spec!r}: only linearised analyses have frequencies")
     return Series(np.asarray(f), "natural frequency", "Hz")
+
+
+def reaction_series(result, spec: str) -> Series:
+    """``reaction:JOINT:COMPONENT`` of a kinetostatic result computed with reactions."""
+    _, _, rest = spec.partition(":")
+    joint, _, comp = rest.partition(":")
+    reactions = result.extra.get("reactions")
+    if not reactions:
+        raise ConfigError(f"series {spec!r}: analysis '{result.name}' has no joint reactions "
+                          "(a kinetostatic analysis with reactions: true has them)")
+    joints = list(reactions[0].joints)
+    if joint not in joints or comp not in REACTION_COMPONENTS:
+        raise ConfigError(f"series {spec!r}: expected reaction:<joint>:<component> with a joint "
+                          f"of {joints} and a component of {list(REACTION_COMPONENTS)}")
+    j = joints.index(joint)
+    F = np.array([r.force[j] for r in reactions])
+    M = np.array([r.moment[j] for r in reactions])
+    if comp in ("force", "moment"):
+        v = np.linalg.norm(F if comp == "force" else M, axis=1)
+    else:
+        v = (F if comp[0] == "f" else M)[:, _COMPONENT[comp[1]]]
+    return Series(v, f"{joint} reaction {comp}", "N" if comp[0] == "f" else "N m")
 
 
 def check_series(spec: str, mech, analysis_type: str) -> None:
@@ -143,6 +172,14 @@ def check_series(spec: str, mech, analysis_type: str) -> None:
         raise ConfigError(f"series {spec!r}: only dynamic analyses have energies")
     if kind == "frequency" and analysis_type != "linearised":
         raise ConfigError(f"series {spec!r}: only linearised analyses have frequencies")
+    if kind == "reaction":
+        joint, _, comp = rest.partition(":")
+        names = [j.name for j in mech.joints]
+        if analysis_type != "kinetostatic" or joint not in names or \
+                comp not in REACTION_COMPONENTS:
+            raise ConfigError(f"series {spec!r}: expected reaction:<joint>:<component> of a "
+                              f"kinetostatic analysis (reactions: true), a joint of {names} and "
+                              f"a component of {list(REACTION_COMPONENTS)}")
     if kind == "driver_force" and analysis_type not in ("dynamic", "kinetostatic"):
         raise ConfigError(f"series {spec!r}: only dynamic and kinetostatic analyses have "
                           "actuator forces")

@@ -630,3 +630,30 @@ def test_set_creates_missing_mappings_and_the_schema_names_a_misspelt_key(tmp_pa
     assert wf.spec.links["crank"].shape.size == [1.0, 0.05, 0.05]
     with pytest.raises(ConfigError, match=r"links\.crank\.shap.*unknown key"):
         load_workflow(path, sets=["links.crank.shap.type=box"])
+
+
+def test_joint_reactions_are_series_and_csv_columns(tmp_path):
+    """Kinetostatic reactions were computed and written nowhere. Without inertia the
+    ground's two pins carry the whole weight of the three bars (6 kg x 9.81 m/s^2) and
+    no net horizontal force (the crank torque is a couple)."""
+    import csv as csvmod
+
+    import numpy as np
+
+    text = FOURBAR.replace("    type: kinematic\n", "    type: kinetostatic\n    reactions: true\n")
+    text = text.replace("    - {name: rocker, analysis: turn, series: [q:JD.theta]}",
+                        "    - {name: rocker, analysis: turn, series: [reaction:JA:fy, "
+                        "reaction:JD:fy, reaction:JB:force]}")
+    res = run_workflow(_write(tmp_path, text), out_root=tmp_path / "out",
+                       cache_dir=tmp_path / "links")
+    assert res.manifest["status"] == "ok", res.manifest["analyses"]
+    with open(res.out_dir / "turn_slow.csv") as fh:
+        rows = list(csvmod.DictReader(fh))
+    fy = np.array([float(r["reaction:JA.fy_N"]) + float(r["reaction:JD.fy_N"]) for r in rows])
+    fx = np.array([float(r["reaction:JA.fx_N"]) + float(r["reaction:JD.fx_N"]) for r in rows])
+    np.testing.assert_allclose(fy, 6.0 * 9.81, rtol=1e-9)
+    np.testing.assert_allclose(fx, 0.0, atol=1e-9)
+    assert (res.out_dir / "rocker.png").exists()
+    with pytest.raises(ConfigError, match="reaction:<joint>"):  # before any analysis
+        run_workflow(_write(tmp_path, text.replace("reaction:JB:force", "reaction:JZ:force")),
+                     out_root=tmp_path / "out2", cache_dir=tmp_path / "links")
