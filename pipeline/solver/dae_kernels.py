@@ -127,14 +127,15 @@ def _terms(q, v, factor, kin, mass, K, D, g, w, frc):
 
 
 @njit(cache=True)
-def _residual_U(M, rhs, C, qdd, lam, U):
-    """(M q'' - rhs + C^T lambda)[U]."""
+def _residual_rows(M, rhs, C, qdd, lam, rows):
+    """(M q'' - rhs + C^T lambda)[rows]: the dynamic residual on the unknowns U (Newton),
+    or the generalized forces the drivers apply on P."""
     R = M @ qdd - rhs
     if C.shape[0]:
         R += C.T @ lam
-    out = np.empty(U.shape[0])
-    for k in range(U.shape[0]):
-        out[k] = R[U[k]]
+    out = np.empty(rows.shape[0])
+    for k in range(rows.shape[0]):
+        out[k] = R[rows[k]]
     return out
 
 
@@ -245,18 +246,6 @@ def _index1(M, rhs, C, gw, aP, U, P, eps):
 
 
 @njit(cache=True)
-def _driver_forces(M, rhs, C, qdd, lam, P):
-    """(p,) the drivers' generalized forces (M q'' - rhs + C^T lambda)_P."""
-    F = M @ qdd - rhs
-    if C.shape[0]:
-        F += C.T @ lam
-    FP = np.empty(P.shape[0])
-    for k in range(P.shape[0]):
-        FP[k] = F[P[k]]
-    return FP
-
-
-@njit(cache=True)
 def _powers(M, rhs, Qnc, C, gw, v, aP, U, P, eps):
     """(driver power, -dissipated power) W at a state, the driver forces from the index-1
     accelerations and multipliers there."""
@@ -264,7 +253,7 @@ def _powers(M, rhs, Qnc, C, gw, v, aP, U, P, eps):
     if P.shape[0] == 0:
         return 0.0, -pnc
     qdd, lam = _index1(M, rhs, C, gw, aP, U, P, eps)
-    FP = _driver_forces(M, rhs, C, qdd, lam, P)
+    FP = _residual_rows(M, rhs, C, qdd, lam, P)
     pd = 0.0
     for k in range(P.shape[0]):
         pd += FP[k] * v[P[k]]
@@ -309,7 +298,7 @@ def step(q0, v0, qdd0, a0, lam0, h, qP, vP, aP, factor, par, unit, U, P, S, sinf
         if it:
             M, rhs, Qnc, c, C, gw = terms(q, v, factor, kin, mass, K, D, g, w, frc)
         sinfo[3] += 1.0
-        G = _residual_U(M, rhs, C, qdd, lam, U)
+        G = _residual_rows(M, rhs, C, qdd, lam, U)
         cerr = 0.0
         for i in range(m):
             cerr = max(cerr, abs(c[i]))
@@ -326,7 +315,7 @@ def step(q0, v0, qdd0, a0, lam0, h, qP, vP, aP, factor, par, unit, U, P, S, sinf
                 vv[i] += gp * d
                 aa[i] += bp * d
                 M2, rhs2, _, _, C2, _ = terms(qq, vv, factor, kin, mass, K, D, g, w, frc)
-                G2 = _residual_U(M2, rhs2, C2, aa, lam, U)
+                G2 = _residual_rows(M2, rhs2, C2, aa, lam, U)
                 for r in range(nU):
                     S[r, kk] = (G2[r] - G[r]) / (d * bp)
             sinfo[0], sinfo[1] = h, 0.0
@@ -527,7 +516,7 @@ def output(q, v, qP, vP, aP, factor, U, P, rank_rtol, kin, mass, K, D, g, w, frc
         x = np.linalg.solve(MUU, f)
     for a in range(nU):
         qdd[U[a]] = x[a]
-    FP = _driver_forces(M, rhs, C, qdd, lam, P)
+    FP = _residual_rows(M, rhs, C, qdd, lam, P)
     e = np.empty(4)
     e[0] = 0.5 * v @ (M @ v)
     e[1] = _gravity_potential(q, A, g, mass)
@@ -548,7 +537,7 @@ def index1_rhs(q, v, aP, factor, U, P, eps, kin, mass, K, D, g, w, frc):
     qdd, lam = _index1(M, rhs, C, gw, aP, U, P, eps)
     pd = 0.0
     if P.shape[0]:
-        FP = _driver_forces(M, rhs, C, qdd, lam, P)
+        FP = _residual_rows(M, rhs, C, qdd, lam, P)
         for k in range(P.shape[0]):
             pd += FP[k] * v[P[k]]
     x = np.empty(U.shape[0])
