@@ -29,7 +29,7 @@ from pipeline.workflow.link_spec import LinkSpec
 from pipeline.workflow.load import Workflow
 from pipeline.workflow.overrides import apply_overrides
 from pipeline.workflow.schema import inertia_matrix
-from pipeline.workflow.yaml_io import _yaml_path, error_lines, load_yaml
+from pipeline.workflow.yaml_io import _yaml_path, error_lines, error_message, load_yaml
 
 #: fields of force elements that name a marker as "link.frame"
 MARKER_FIELDS = ("marker", "marker_a", "marker_b")
@@ -114,8 +114,8 @@ def _link_spec(wf: Workflow, name: str, entry) -> tuple[LinkSpec, Path]:
             if key is None:
                 rest.append(err)
             else:
-                msg = err["msg"].removeprefix("Value error, ")
-                msgs.append(f"{wf.where('links', name, 'spec_overrides', key)}: {msg}")
+                msgs.append(f"{wf.where('links', name, 'spec_overrides', key)}: "
+                            f"{error_message(err)}")
         raise ConfigError("\n".join(msgs + error_lines(rest, path, data, lines))) from None
 
 

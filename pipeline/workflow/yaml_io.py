@@ -159,16 +159,21 @@ def _yaml_path(loc: tuple, data: Any) -> PathKey:
     return tuple(path)
 
 
+def error_message(err: dict) -> str:
+    """What a pydantic error dict says, in the workflow's words."""
+    if err["type"] == "extra_forbidden":
+        return "unknown key (misspelt?)"
+    return err["msg"].removeprefix("Value error, ")
+
+
 def error_lines(errors, source: str | Path, data: Any, lines: dict[PathKey, int]) -> list[str]:
     """``file:line: yaml.path: message`` of each pydantic error dict."""
     msgs = []
     for err in errors:
         path = _yaml_path(tuple(err["loc"]), data)
         line = lines.get(path, lines.get((), 1))
-        msg = err["msg"].removeprefix("Value error, ")
-        if err["type"] == "extra_forbidden":
-            msg = "unknown key (misspelt?)"
-        elif err["type"] == "missing":
+        msg = error_message(err)
+        if err["type"] == "missing":
             path = path + tuple(p for p in err["loc"][len(path):] if isinstance(p, str))[-1:]
         msgs.append(f"{source}:{line}: {_fmt(path)}: {msg}")
     return msgs
