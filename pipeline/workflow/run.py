@@ -202,12 +202,13 @@ def _remove_stale(out_root: Path, name: str) -> None:
 
 @contextlib.contextmanager
 def _workflow_lock(out_root: Path, name: str):
-    try:
-        with folder_lock(out_root, name):
-            yield
-    except BlockingIOError:
-        raise ConfigError(f"{out_root / name}: another run of workflow {name!r} is writing "
-                          "it; wait for that run to finish") from None
+    with contextlib.ExitStack() as stack:
+        try:  # only the acquisition: a BlockingIOError inside the run is the run's own
+            stack.enter_context(folder_lock(out_root, name))
+        except BlockingIOError:
+            raise ConfigError(f"{out_root / name}: another run of workflow {name!r} is "
+                              "writing it; wait for that run to finish") from None
+        yield
 
 
 def run_workflow(workflow: str | Path | Workflow, *, out_root: str | Path = "output",
