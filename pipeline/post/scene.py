@@ -4,6 +4,7 @@ stated factor); rigid links are grey. pyvista is imported inside the functions."
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -31,74 +32,157 @@ def posed_points(mech, shape, q, scale: float = 1.0, poses=None) -> tuple[np.nda
     q = np.asarray(q, dtype=float)
     li = mech.link_index(shape.link)
     A = (link_poses(mech, q) if poses is None else poses)[li]
-    X = shape.points
-    if shape.modes is not None and shape.modes.shape[0]:
-        eta = q[mech.modal_index[li]]
-        u = np.tensordot(eta, shape.modes, axes=(0, 0))
-    else:
-        u = np.zeros_like(X)
-    P = (X + scale * u) @ A[:3, :3].T + A[:3, 3]
-    return P, np.linalg.norm(u, axis=1)
+    return _placed(shape.points, shape.modes, A, q[mech.modal_index[li]], scale)
 
 
-def _polydata(pv, shape, P):
-    if shape.triangles is not None:
-        t = shape.triangles
-        return pv.PolyData(P, np.hstack([np.full((len(t), 1), 3), t]).ravel())
-    l = shape.lines
-    return pv.PolyData(P, lines=np.hstack([np.full((len(l), 1), 2), l]).ravel())
+def joint_points(mech, q, poses=None) -> tuple[np.ndarray, np.ndarray]:
+    """((J, 3) ground positions of the joints at q, m; (J,) True where the joint holds a
+    link to ground) -- the pivots drawn in pictures."""
+    from pipeline.kinematics.poses import step_pose
+
+    q = np.asarray(q, dtype=float)
+    A = link_poses(mech, q) if poses is None else poses
+    P = np.array([step_pose(mech.marker(j.parent, j.parent_frame), A, q)[:3, 3]
+                  for j in mech.joints]).reshape(-1, 3)
+    grounded = np.array([mech.ground in (j.parent, j.child) for j in mech.joints], bool)
+    return P, grounded
 
 
-def _camera(plotter, camera):
-    """Named view, or a view direction (3,) (from the scene towards the camera; z up)."""
-    if not isinstance(camera, str):
-        v = np.asarray(camera, dtype=float)
-        if v.shape != (3,) or not np.linalg.norm(v) > 0:
-            raise ConfigError(f"camera: expected a name {_CAMERAS} or a direction [x, y, z], "
-                              f"got {camera!r}")
-        up = (0.0, 0.0, 1.0) if abs(v[2]) < 0.9 * np.linalg.norm(v) else (0.0, 1.0, 0.0)
-        plotter.view_vector(v, viewup=up)
-        return
-    if camera not in _CAMERAS:
-        raise ConfigError(f"camera: expected one of {_CAMERAS}, got {camera!r}")
-    {"xy": plotter.view_xy, "xz": plotter.view_xz, "yz": plotter.view_yz,
-     "iso": plotter.view_isometric}[camera]()
+@dataclass(frozen=True)
+class Picture:
+    """A still written to ``path``; ``labels``: (text, (x0, y0, x1, y1)) pixel box of each
+    label as drawn (origin at the lower left of the image)."""
+
+    path: Path
+    labels: tuple = ()
 
 
-def _add_machine(plotter, pv, mech, shapes, q, scale, clim, opacity=1.0, ghost=False):
-    """Add every link at q; returns the largest elastic displacement drawn (m)."""
-    peak = 0.0
-    poses = link_poses(mech, q)
-    for shape in shapes.values():
-        P, d = posed_points(mech, shape, q, scale, poses)
-        mesh = _polydata(pv, shape, P)
-        if ghost:
-            plotter.add_mesh(mesh, style="wireframe", color="dimgrey", opacity=0.4, line_width=2)
-            continue
-        if shape.modes is not None and shape.modes.shape[0]:
-            mesh.point_data["elastic displacement, mm"] = 1e3 * d
-            plotter.add_mesh(mesh, scalars="elastic displacement, mm", cmap="viridis",
-                             clim=clim, opacity=opacity, line_width=5,
-                             show_scalar_bar=False)
-            peak = max(peak, float(d.max(initial=0.0)))
-        else:
-            plotter.add_mesh(mesh, color="silver", opacity=opacity, line_width=5,
-                             smooth_shading=False)
-    return peak
+@dataclass(frozen=True)
+class Style:
+    """How a picture is drawn.
+
+    Attributes
+    ----------
+    line_px : on-screen width of slender links, beams and the scale bar, pixels (a
+        minimum: thick links are drawn as their surface).
+    up : (3,) unit vector against gravity, ground axes; draws a ground line (2-D views)
+        or plane (3-D) below the machine. None: no ground.
+    font_px : label height, pixels.
+    """
+
+    line_px: float = 6.0
+    up: tuple | None = None
+    font_px: int = 16
 
 
-def _label_anchor(mech, shapes, q, scale) -> np.ndarray:
-    """Where to write a configuration's label: at its largest elastic displacement (the
-    flexible links' far end), else at the centre of the machine."""
-    best, anchor = -1.0, None
-    for s in shapes.values():
-        P, d = posed_points(mech, s, q, scale)
-        if s.modes is not None and d.size and d.max() > best:
-            best, anchor = float(d.max()), P[int(np.argmax(d))]
-    if anchor is None:
-        anchor = np.mean([posed_points(mech, s, q, scale)[0].mean(axis=0)
-                          for s in shapes.values()], axis=0)
-    return anchor
+def _polydata(pv, points, triangles=None, lines=None):
+    if triangles is not None:
+        t = np.asarray(triangles)
+        return pv.PolyData(points, np.hstack([np.full((len(t), 1), 3), t]).ravel())
+    ln = np.asarray(lines)
+    return pv.PolyData(points, lines=np.hstack([np.full((len(ln), 1), 2), ln]).ravel())
+
+
+def _placed(X, fields, A, eta, scale):
+    """((N, 3) ground points, (N,) |elastic displacement|) of body points X."""
+    flexible = fields is not None and eta.size and fields.shape[0]
+    u = np.tensordot(eta, fields, axes=(0, 0)) if flexible else np.zeros_like(X)
+    return (X + scale * u) @ A[:3, :3].T + A[:3, 3], np.linalg.norm(u, axis=1)
+
+
+_SCALARS = "elastic displacement, mm"
+
+
+class _Drawn:
+    """The actors of one configuration of the machine, updated in place from frame to
+    frame (a new actor per frame costs a full render each)."""
+
+    def __init__(self, plotter, pv, mech, shapes, q, scale, clim, style, opacity=1.0,
+                 ghost=False):
+        self.mech, self.shapes, self.scale, self.ghost = mech, shapes, scale, ghost
+        self.meshes = []
+        self.peak = 0.0
+        poses = link_poses(mech, q)
+        lw = style.line_px
+        for shape in shapes.values():
+            flexible = shape.modes is not None and shape.modes.shape[0] > 0
+            parts = [(shape.points, shape.modes,
+                      _polydata(pv, shape.points, shape.triangles, shape.lines))]
+            spine = shape.spine
+            if spine is not None:
+                n = len(spine[0])
+                parts.append((spine[0], spine[1], _polydata(
+                    pv, spine[0], lines=np.column_stack([np.arange(n - 1), np.arange(1, n)]))))
+            for X, fields, mesh in parts:
+                self.meshes.append((shape, X, fields, mesh))
+                is_line = mesh.n_lines > 0
+                kw = dict(line_width=lw, render_lines_as_tubes=True) if is_line else {}
+                if ghost:
+                    plotter.add_mesh(mesh, style="wireframe" if not is_line else "surface",
+                                     color="darkgrey", opacity=0.5,
+                                     line_width=max(1.0, lw / 3) if is_line else 1.0)
+                elif flexible:
+                    mesh.point_data[_SCALARS] = np.zeros(mesh.n_points)
+                    plotter.add_mesh(mesh, scalars=_SCALARS, cmap="viridis", clim=clim,
+                                     opacity=opacity, show_scalar_bar=False, **kw)
+                else:
+                    plotter.add_mesh(mesh, color="silver" if not is_line else "grey",
+                                     opacity=opacity, **kw)
+        self.update(q, poses)
+
+    def update(self, q, poses=None):
+        q = np.asarray(q, dtype=float)
+        poses = link_poses(self.mech, q) if poses is None else poses
+        scale = 0.0 if self.ghost else self.scale
+        for shape, X, fields, mesh in self.meshes:
+            li = self.mech.link_index(shape.link)
+            P, d = _placed(X, fields, poses[li], q[self.mech.modal_index[li]], scale)
+            mesh.points = P
+            if _SCALARS in mesh.point_data:
+                mesh.point_data[_SCALARS] = 1e3 * d
+                self.peak = max(self.peak, float(d.max(initial=0.0)))
+
+
+class _Pivots:
+    """Joints as dots; joints to ground larger and dark red."""
+
+    def __init__(self, plotter, pv, mech, q, style):
+        self.mech = mech
+        P, grounded = joint_points(mech, q)
+        self.grounded = grounded
+        self.free = pv.PolyData(P[~grounded]) if (~grounded).any() else None
+        self.fixed = pv.PolyData(P[grounded]) if grounded.any() else None
+        if self.free is not None:
+            plotter.add_mesh(self.free, color="black", point_size=1.8 * style.line_px,
+                             render_points_as_spheres=True)
+        if self.fixed is not None:
+            plotter.add_mesh(self.fixed, color="firebrick", point_size=2.6 * style.line_px,
+                             render_points_as_spheres=True)
+
+    def update(self, q, poses=None):
+        P, _ = joint_points(self.mech, q, poses)
+        if self.free is not None:
+            self.free.points = P[~self.grounded]
+        if self.fixed is not None:
+            self.fixed.points = P[self.grounded]
+
+
+def label_anchors(mech, shapes, Q, scale, sample: int = 400) -> np.ndarray:
+    """(len(Q), 3) where to attach each configuration's label: its drawn point farthest
+    from every other configuration (what tells it apart), m."""
+    from scipy.spatial import cKDTree
+
+    clouds = []
+    for q in Q:
+        P = np.vstack([posed_points(mech, s, q, scale)[0] for s in shapes.values()])
+        clouds.append(P[:: max(1, len(P) // sample)])
+    if len(clouds) == 1:
+        return clouds[0][[int(np.argmax(np.linalg.norm(clouds[0] - clouds[0].mean(0), axis=1)))]]
+    out = []
+    for i, P in enumerate(clouds):
+        others = cKDTree(np.vstack([c for j, c in enumerate(clouds) if j != i]))
+        out.append(P[int(np.argmax(others.query(P)[0]))])
+    return np.array(out)
 
 
 def _clim(mech, shapes, Q, scale):
@@ -112,65 +196,249 @@ def _clim(mech, shapes, Q, scale):
 
 def _bar(plotter, scale, clim):
     if clim[1] > 1e-9:
+        title = f"{_SCALARS} (drawn x{scale:g})"
         mesh = _pyvista().PolyData(np.zeros((1, 3)))
-        mesh.point_data[f"elastic displacement, mm (drawn x{scale:g})"] = [0.0]
-        actor = plotter.add_mesh(mesh, scalars=f"elastic displacement, mm (drawn x{scale:g})",
-                                 cmap="viridis", clim=clim, point_size=0.0, opacity=0.0,
-                                 show_scalar_bar=True)
-        return actor
-    return None
+        mesh.point_data[title] = [0.0]
+        plotter.add_mesh(mesh, scalars=title, cmap="viridis", clim=clim, point_size=0.0,
+                         opacity=0.0, show_scalar_bar=True,
+                         scalar_bar_args=dict(color="black", fmt="%.3g"))
+
+
+def scene_bounds(mech, shapes, Q, scale) -> np.ndarray:
+    """(3, 2) min/max of every drawn point over the configurations Q, m."""
+    P = np.vstack([posed_points(mech, s, q, scale)[0] for q in Q for s in shapes.values()]
+                  + [joint_points(mech, q)[0] for q in Q])
+    return np.column_stack([P.min(axis=0), P.max(axis=0)])
+
+
+def nice_length(x: float) -> float:
+    """The largest of 1, 2, 5 x 10^k not above x (a scale bar's length).
+
+    >>> nice_length(0.37), nice_length(2.2), nice_length(7.0)
+    (0.2, 2.0, 5.0)
+    """
+    k = np.floor(np.log10(x))
+    m = x / 10 ** k
+    return float(round((5 if m >= 5 else 2 if m >= 2 else 1) * 10 ** k, 12))
+
+
+def _view_axes(camera) -> tuple[np.ndarray, np.ndarray] | None:
+    """(right, up) unit vectors of a named 2-D view in ground axes; None for 3-D views."""
+    e = np.eye(3)
+    return {"xy": (e[0], e[1]), "xz": (e[0], e[2]), "yz": (e[1], e[2])}.get(
+        camera if isinstance(camera, str) else None)
+
+
+def _furniture(plotter, pv, bounds, camera, style) -> list[np.ndarray]:
+    """Ground line or plane, scale bar and axes triad around the scene; returns the points
+    they occupy (so the camera frames them)."""
+    lo, hi = bounds[:, 0], bounds[:, 1]
+    size = float(np.max(hi - lo)) or 1.0
+    centre = 0.5 * (lo + hi)
+    axes = _view_axes(camera)
+    right = axes[0] if axes else np.array([1.0, 0.0, 0.0])
+    drawn = []
+    if style.up is not None:
+        up = np.asarray(style.up, dtype=float)
+        corners = np.array([[x, y, z] for x in bounds[0] for y in bounds[1] for z in bounds[2]])
+        level = float((corners @ up).min()) - 0.04 * size
+        base = centre + (level - centre @ up) * up
+        if axes is not None and abs(axes[1] @ up) > 0.9:  # side view: a ground line
+            ext = 0.5 * float(np.ptp(corners @ axes[0])) + 0.05 * size
+            a, b = base - ext * axes[0], base + ext * axes[0]
+            plotter.add_mesh(pv.Line(a, b), color="dimgrey", line_width=style.line_px / 2)
+            drawn += [a, b]
+        elif axes is None:
+            plane = pv.Plane(center=base, direction=up, i_size=1.3 * size, j_size=1.3 * size)
+            plotter.add_mesh(plane, color="tan", opacity=0.25)
+            drawn += [base]
+    # scale bar below and left of the machine, along the view's horizontal
+    length = nice_length(0.25 * size)
+    down = -(axes[1] if axes else np.asarray(style.up if style.up is not None else (0, 0, 1.0)))
+    start = centre - 0.5 * float(np.ptp([c @ right for c in (lo, hi)])) * right \
+        + (0.5 * float(np.ptp([c @ down for c in (lo, hi)])) + 0.1 * size) * down
+    end = start + length * right
+    plotter.add_mesh(pv.Line(start, end), color="black", line_width=style.line_px / 2)
+    plotter.add_point_labels([0.5 * (start + end) + 0.05 * size * down],
+                             [f"{length:g} m"], shape=None, font_size=style.font_px,
+                             text_color="black", show_points=False, always_visible=True)
+    drawn += [start, end]
+    # axes triad at the ground origin, as long as the scale bar
+    for k, (name, colour) in enumerate((("x", "red"), ("y", "green"), ("z", "blue"))):
+        tip = length * 0.5 * np.eye(3)[k]
+        plotter.add_mesh(pv.Line(np.zeros(3), tip), color=colour, line_width=style.line_px / 2)
+        plotter.add_point_labels([tip * 1.15], [name], shape=None, font_size=style.font_px,
+                                 text_color=colour, show_points=False, always_visible=True)
+    return drawn
+
+
+def _camera(plotter, camera):
+    """Named view, or a view direction (3,) (from the scene towards the camera; z up).
+    2-D views are parallel projections (lengths read the same everywhere)."""
+    if not isinstance(camera, str):
+        v = np.asarray(camera, dtype=float)
+        if v.shape != (3,) or not np.linalg.norm(v) > 0:
+            raise ConfigError(f"camera: expected a name {_CAMERAS} or a direction [x, y, z], "
+                              f"got {camera!r}")
+        up = (0.0, 0.0, 1.0) if abs(v[2]) < 0.9 * np.linalg.norm(v) else (0.0, 1.0, 0.0)
+        plotter.view_vector(v, viewup=up)
+        return
+    if camera not in _CAMERAS:
+        raise ConfigError(f"camera: expected one of {_CAMERAS}, got {camera!r}")
+    {"xy": plotter.view_xy, "xz": plotter.view_xz, "yz": plotter.view_yz,
+     "iso": plotter.view_isometric}[camera]()
+    if camera != "iso":
+        plotter.enable_parallel_projection()
+
+
+def _frame(plotter, bounds, extra):
+    P = np.vstack([bounds.T] + [np.atleast_2d(e) for e in extra])
+    b = np.column_stack([P.min(axis=0), P.max(axis=0)]).ravel()
+    plotter.reset_camera(bounds=b)
+    plotter.camera.zoom(1.05)
+
+
+def place_labels(anchors, sizes, window, taken=(), gap: float = 8.0) -> np.ndarray:
+    """Lower-left pixel positions (n, 2) of n labels next to their anchors without overlap.
+
+    Each label tries the four corners around its anchor at growing distances and takes
+    the first spot inside the window that overlaps neither a placed label nor a box in
+    ``taken`` ((x0, y0, x1, y1) each).
+
+    >>> place_labels([[100, 100], [102, 101]], [[60, 16], [60, 16]], (400, 300)).tolist()
+    [[108.0, 108.0], [110.0, 85.0]]
+    """
+    anchors, sizes = np.asarray(anchors, float), np.asarray(sizes, float)
+    boxes = [tuple(b) for b in taken]
+    out = np.zeros_like(anchors)
+    for i, ((ax, ay), (w, h)) in enumerate(zip(anchors, sizes)):
+        best = None
+        for ring in range(12):
+            d = gap + ring * 0.6 * h
+            for dx, dy in ((d, d), (d, -d - h), (-d - w, d), (-d - w, -d - h)):
+                x, y = ax + dx, ay + dy
+                box = (x, y, x + w, y + h)
+                inside = x >= 0 and y >= 0 and x + w <= window[0] and y + h <= window[1]
+                if inside and not any(_overlap(box, b) for b in boxes):
+                    best = (x, y)
+                    break
+            if best is not None:
+                break
+        if best is None:  # crowded: the first spot, even if it overlaps
+            best = (ax + gap, ay + gap)
+        out[i] = best
+        boxes.append((best[0], best[1], best[0] + w, best[1] + h))
+    return out
+
+
+def _overlap(a, b) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+
+def _to_display(renderer, P) -> np.ndarray:
+    out = []
+    for p in np.atleast_2d(P):
+        renderer.SetWorldPoint(*p, 1.0)
+        renderer.WorldToDisplay()
+        out.append(renderer.GetDisplayPoint()[:2])
+    return np.array(out)
+
+
+def _text_box(renderer, actor) -> tuple:
+    """(x0, y0, x1, y1) pixels of a text actor as drawn (its position plus its extent)."""
+    bb = [0.0] * 4
+    actor.GetBoundingBox(renderer, bb)
+    x, y = actor.GetPosition()
+    return (x + bb[0], y + bb[2], x + bb[1], y + bb[3])
+
+
+def _text_actor(renderer, text: str, font_px: int, box: bool = True):
+    from vtkmodules.vtkRenderingCore import vtkTextActor
+
+    a = vtkTextActor()
+    a.SetInput(str(text))
+    prop = a.GetTextProperty()
+    prop.SetFontSize(font_px)
+    prop.SetColor(0, 0, 0)
+    if box:
+        prop.SetBackgroundColor(1, 1, 1)
+        prop.SetBackgroundOpacity(0.8)
+    renderer.AddActor(a)
+    return a
+
+
+def _add_labels(plotter, anchors, texts, style) -> tuple:
+    """Labels next to their anchors (world points), placed without overlap; returns
+    (text, pixel box) of each."""
+    ren = plotter.renderer
+    actors = [_text_actor(ren, text, style.font_px) for text in texts]
+    plotter.render()
+    sizes = [(b[2] - b[0], b[3] - b[1]) for b in (_text_box(ren, a) for a in actors)]
+    spots = place_labels(_to_display(ren, anchors), sizes, plotter.window_size)
+    for a, (x, y) in zip(actors, spots):
+        a.SetPosition(float(x), float(y))
+    plotter.render()
+    return tuple((str(t), _text_box(ren, a)) for t, a in zip(texts, actors))
 
 
 def render_machine(path, mech, shapes, q, *, scale: float = 1.0, title: str | None = None,
-                   camera: str = "iso", ghost_q=None,
-                   window_size: tuple[int, int] = (1200, 900)) -> Path:
+                   camera: str = "iso", ghost_q=None, style: Style | None = None,
+                   window_size: tuple[int, int] = (1200, 900)) -> Picture:
     """PNG of the machine at q (written atomically); optional grey wireframe at ``ghost_q``
     (e.g. the same configuration without elastic deformation)."""
     return render_positions(path, mech, shapes, [q], None, scale=scale, title=title,
                             camera=camera, ghost_q=None if ghost_q is None else [ghost_q],
-                            window_size=window_size)
+                            style=style, window_size=window_size)
 
 
 def render_positions(path, mech, shapes, Q, labels=None, *, scale: float = 1.0,
                      title: str | None = None, camera: str = "iso", ghost_q=None,
-                     window_size: tuple[int, int] = (1200, 900)) -> Path:
+                     style: Style | None = None,
+                     window_size: tuple[int, int] = (1200, 900)) -> Picture:
     """One PNG with the machine at several configurations (e.g. lower/middle/upper),
-    one shared colour range; labels are written next to each configuration; ``ghost_q``:
-    configurations drawn as grey wireframes (e.g. the undeformed ones)."""
+    one shared colour range, pivots, ground, scale bar and triad; ``labels`` are written
+    next to each configuration without overlapping; ``ghost_q``: configurations drawn
+    as grey wireframes (e.g. the undeformed ones)."""
     pv = _pyvista()
+    style = style or Style()
     Q = [np.asarray(q, dtype=float) for q in Q]
     clim = _clim(mech, shapes, Q, scale)
     plotter = pv.Plotter(off_screen=True, window_size=window_size)
     try:
         plotter.set_background("white")
         for g in ghost_q or ():
-            _add_machine(plotter, pv, mech, shapes, g, 0.0, clim, ghost=True)
-        for k, q in enumerate(Q):
-            _add_machine(plotter, pv, mech, shapes, q, scale, clim,
-                         opacity=1.0 if len(Q) == 1 else 0.9)
-            if labels:
-                anchor = _label_anchor(mech, shapes, q, scale)
-                plotter.add_point_labels([anchor], [str(labels[k])], font_size=14,
-                                         shape_opacity=0.3, always_visible=True)
+            _Drawn(plotter, pv, mech, shapes, g, 0.0, clim, style, ghost=True)
+        for q in Q:
+            _Drawn(plotter, pv, mech, shapes, q, scale, clim, style,
+                   opacity=1.0 if len(Q) == 1 else 0.9)
+            _Pivots(plotter, pv, mech, q, style)
+        bounds = scene_bounds(mech, shapes, Q, scale)
+        extra = _furniture(plotter, pv, bounds, camera, style)
         _bar(plotter, scale, clim)
         if title:
             plotter.add_text(title, font_size=11, color="black")
         _camera(plotter, camera)
-        plotter.reset_camera()
+        _frame(plotter, bounds, extra)
+        boxes = ()
+        if labels:
+            anchors = label_anchors(mech, shapes, Q, scale)
+            boxes = _add_labels(plotter, anchors, labels, style)
         image = plotter.screenshot(return_img=True)
     finally:
         plotter.close()
-    return save_png(image, path)
+    return Picture(save_png(image, path), boxes)
 
 
 def animate_machine(path, mech, shapes, t, Q, *, scale: float = 1.0, fps: int = 15,
-                    max_frames: int = 60, camera: str = "iso",
+                    max_frames: int = 60, camera: str = "iso", style: Style | None = None,
                     window_size: tuple[int, int] = (800, 600)) -> Path:
     """GIF (or MP4 if the suffix is .mp4 and imageio-ffmpeg is installed) of the run; fixed
-    camera framing the whole motion and one colour range; time in the title."""
+    camera framing the whole motion and one colour range; time in the title. The scene
+    is built once and its points moved per frame (one render per frame)."""
     import imageio.v2 as imageio
 
     pv = _pyvista()
+    style = style or Style(line_px=4.0)
     path = Path(path)
     t = np.asarray(t, dtype=float)
     Q = np.asarray(Q, dtype=float)
@@ -178,20 +446,25 @@ def animate_machine(path, mech, shapes, t, Q, *, scale: float = 1.0, fps: int = 
         raise ConfigError(f"{path.name}: nothing to animate (no output times)")
     picks = np.unique(np.linspace(0, len(t) - 1, min(max_frames, len(t))).round().astype(int))
     clim = _clim(mech, shapes, Q[picks], scale)
-    allP = np.vstack([posed_points(mech, s, Q[k], scale)[0] for k in picks[:: max(
-        1, len(picks) // 8)] for s in shapes.values()])
-    bounds = np.column_stack([allP.min(axis=0), allP.max(axis=0)]).ravel()
+    bounds = scene_bounds(mech, shapes, Q[picks[:: max(1, len(picks) // 12)]], scale)
     frames = []
     plotter = pv.Plotter(off_screen=True, window_size=window_size)
     try:
         plotter.set_background("white")
+        drawn = _Drawn(plotter, pv, mech, shapes, Q[picks[0]], scale, clim, style)
+        pivots = _Pivots(plotter, pv, mech, Q[picks[0]], style)
+        extra = _furniture(plotter, pv, bounds, camera, style)
+        _bar(plotter, scale, clim)
+        clock = _text_actor(plotter.renderer, "t = 0 s", style.font_px, box=False)
+        clock.SetPosition(10, window_size[1] - 2.2 * style.font_px)
+        _camera(plotter, camera)
+        _frame(plotter, bounds, extra)
         for k in picks:
-            plotter.clear()
-            _add_machine(plotter, pv, mech, shapes, Q[k], scale, clim)
-            _bar(plotter, scale, clim)
-            plotter.add_text(f"t = {t[k]:.3f} s", font_size=12, color="black")
-            _camera(plotter, camera)
-            plotter.reset_camera(bounds=bounds)
+            poses = link_poses(mech, Q[k])
+            drawn.update(Q[k], poses)
+            pivots.update(Q[k], poses)
+            clock.SetInput(f"t = {t[k]:.3f} s")
+            plotter.render()
             frames.append(plotter.screenshot(return_img=True))
     finally:
         plotter.close()

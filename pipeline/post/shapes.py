@@ -29,6 +29,24 @@ class LinkShape:
     lines: np.ndarray | None = None
     modes: np.ndarray | None = None
 
+    @property
+    def spine(self) -> tuple[np.ndarray, np.ndarray | None] | None:
+        """Centre line of a slender surface: ((S, 3) points, (k, S, 3) modal fields or
+        None), body frame, m; None for a link that is not slender or is drawn as lines.
+
+        Pictures draw it with a fixed width in pixels, so that a bar 3 mm thick on a
+        machine metres wide stays visible. The points are the means of the surface
+        points in slices along the principal axis; the modal fields are averaged with the
+        same weights, so the line moves with the link.
+        """
+        if self.triangles is None:
+            return None
+        W = _slice_means(self.points)
+        if W is None:
+            return None
+        fields = None if self.modes is None else np.einsum("sn,knc->ksc", W, self.modes)
+        return W @ self.points, fields
+
 
 def shape_from_reduced(reduced, modes=None, link: str | None = None) -> LinkShape:
     """Surface (solids) or centre line (beams) of a ReducedLink, with the kept modes'
@@ -37,9 +55,12 @@ def shape_from_reduced(reduced, modes=None, link: str | None = None) -> LinkShap
     fields = np.asarray(reduced.mode_shapes)[idx] if idx else None
     surface = np.asarray(reduced.surface)
     if surface.size:
-        tri = surface[:, :3].astype(int)  # corner nodes: a linear surface is enough
-        return LinkShape(link or reduced.name, np.asarray(reduced.nodes, float), tri, None,
-                         fields)
+        # corner nodes of the surface only: a linear surface is enough for a picture, and
+        # a solid's interior and mid-side nodes would be most of every frame's points
+        used, tri = np.unique(surface[:, :3].astype(int), return_inverse=True)
+        tri = tri.reshape(-1, 3)
+        return LinkShape(link or reduced.name, np.asarray(reduced.nodes, float)[used], tri,
+                         None, None if fields is None else fields[:, used])
     lines = np.asarray(reduced.cells)[:, :2].astype(int)
     return LinkShape(link or reduced.name, np.asarray(reduced.nodes, float), None, lines, fields)
 
@@ -68,3 +89,24 @@ def stick_shape(link, radius: float = 0.02) -> LinkShape:
         tris.append(t + n0)
         n0 += len(p)
     return LinkShape(link.name, np.vstack(pts), np.vstack(tris))
+
+
+def _slice_means(points: np.ndarray, slices: int = 24, slender: float = 0.15):
+    """(S, N) weights averaging the points of each slice along the principal axis, or None
+    when the second principal extent is more than ``slender`` times the first."""
+    X = np.asarray(points, dtype=float)
+    c = X.mean(axis=0)
+    _, _, vt = np.linalg.svd(X - c, full_matrices=False)
+    proj = (X - c) @ vt.T
+    extent = np.ptp(proj, axis=0)
+    if extent[0] <= 0 or extent[1] > slender * extent[0]:
+        return None
+    lo, hi = proj[:, 0].min(), proj[:, 0].max()
+    # thin end slices, so that the line reaches the link's ends
+    edges = np.concatenate([[lo], np.linspace(lo + 0.01 * (hi - lo), hi - 0.01 * (hi - lo),
+                                              slices - 1), [hi]])
+    which = np.clip(np.searchsorted(edges, proj[:, 0], side="right") - 1, 0, slices - 1)
+    W = np.zeros((slices, len(X)))
+    W[which, np.arange(len(X))] = 1.0
+    W = W[W.sum(axis=1) > 0]
+    return W / W.sum(axis=1, keepdims=True)

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+logger = logging.getLogger(__name__)
+
 from pipeline.core.atomic import atomic_open
+from pipeline.core.progress import progress_counter
 from pipeline.post.scene import link_poses, posed_points
 
 
@@ -41,10 +45,15 @@ def machine_grid(mech, shapes, q, scale: float = 1.0):
 
 
 def write_vtk_series(folder, mech, shapes, t, Q, *, scale: float = 1.0, name: str = "machine",
-                     max_steps: int = 200) -> Path:
+                     max_steps: int = 100) -> Path:
     """Write ``folder/<name>_<k>.vtu`` (at most ``max_steps``, evenly thinned) and
     ``folder/<name>.pvd``; point data: elastic displacement (ground axes, m) and its
-    magnitude; cell data: link_id (index in ``shapes``). Returns the .pvd path."""
+    magnitude; cell data: link_id (index in ``shapes``). Returns the .pvd path.
+
+    Points and fields are written in single precision (zlib-compressed): a picture
+    needs no more, and it halves the files. The size of the series is estimated from
+    the first frame and logged; a terminal shows a progress bar.
+    """
     import meshio
 
     folder = Path(folder)
@@ -52,11 +61,22 @@ def write_vtk_series(folder, mech, shapes, t, Q, *, scale: float = 1.0, name: st
     t = np.asarray(t, dtype=float)
     picks = np.unique(np.linspace(0, len(t) - 1, min(max_steps, len(t))).round().astype(int))
     entries = []
-    for k in picks:
-        P, cells, pdata, cdata = machine_grid(mech, shapes, Q[k], scale)
-        fname = f"{name}_{k:05d}.vtu"
-        meshio.write(folder / fname, meshio.Mesh(P, cells, point_data=pdata, cell_data=cdata))
-        entries.append(f'    <DataSet timestep="{t[k]:.9g}" part="0" file={quoteattr(fname)}/>')
+    with progress_counter(len(picks), f"VTU {name}") as advance:
+        for n, k in enumerate(picks):
+            P, cells, pdata, cdata = machine_grid(mech, shapes, Q[k], scale)
+            fname = f"{name}_{k:05d}.vtu"
+            mesh = meshio.Mesh(P.astype(np.float32),
+                               [(c, a.astype(np.int32)) for c, a in cells],
+                               point_data={k_: v.astype(np.float32) for k_, v in pdata.items()},
+                               cell_data={k_: [a.astype(np.int32) for a in v]
+                                          for k_, v in cdata.items()})
+            meshio.write(folder / fname, mesh)
+            if n == 0:
+                size = (folder / fname).stat().st_size
+                logger.info("VTU %s: %d frames, about %.1f MB", name, len(picks),
+                            size * len(picks) / 1e6)
+            entries.append(f'    <DataSet timestep="{t[k]:.9g}" part="0" file={quoteattr(fname)}/>')
+            advance(n + 1)
     pvd = folder / f"{name}.pvd"
     with atomic_open(pvd, "w") as fh:
         fh.write('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'

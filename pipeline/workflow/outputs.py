@@ -206,6 +206,15 @@ def rigid_configuration(mech, q) -> np.ndarray:
     return q
 
 
+def picture_style(wf, **kw):
+    """Style of a workflow's pictures: the ground drawn against its gravity."""
+    from pipeline.post.scene import Style
+
+    g = np.asarray(wf.spec.gravity, dtype=float)
+    up = tuple(-g / np.linalg.norm(g)) if np.linalg.norm(g) > 0 else None
+    return Style(up=up, **kw)
+
+
 def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
     from pipeline.post.scene import render_machine, render_positions
 
@@ -221,7 +230,8 @@ def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
         scale = _scale(rs_spec.scale) or _auto_scale(m, shapes, Q)
         render_positions(path, m.mechanism, shapes, Q, [r.case for r in rs], scale=scale,
                          camera=rs_spec.camera, title=rs_spec.title or f"{wf.name}: {rs[0].name}",
-                         ghost_q=[rigid_configuration(m.mechanism, q) for q in Q])
+                         ghost_q=[rigid_configuration(m.mechanism, q) for q in Q],
+                         style=picture_style(wf))
         return path.name
     r = _pick(rs, rs_spec.case, wf, "outputs", "renders", idx, "case")
     if not has_data(r):
@@ -242,11 +252,11 @@ def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
     if len(Q) == 1:
         when = "" if r.type in ("static", "linearised") else f", t = {r.t[ks[0]]:.3g} s"
         render_machine(path, m.mechanism, shapes, Q[0], scale=scale, camera=rs_spec.camera,
-                       title=f"{title}{when}", ghost_q=ghosts[0])
+                       title=f"{title}{when}", ghost_q=ghosts[0], style=picture_style(wf))
     else:
         render_positions(path, m.mechanism, shapes, Q, [f"t = {r.t[k]:.3g} s" for k in ks],
                          scale=scale, camera=rs_spec.camera, title=title,
-                         ghost_q=None if ghosts[0] is None else ghosts)
+                         ghost_q=None if ghosts[0] is None else ghosts, style=picture_style(wf))
     return path.name
 
 
@@ -262,11 +272,12 @@ def _animate(folder, wf, machines, results, idx, an, skipped) -> str | None:
     scale = _scale(an.scale) or _auto_scale(m, shapes, r.q[:: max(1, len(r.t) // 10)])
     path = folder / f"{an.name}.{an.format}"
     animate_machine(path, m.mechanism, shapes, r.t, r.q, scale=scale, fps=an.fps,
-                    max_frames=an.max_frames, camera=an.camera)
+                    max_frames=an.max_frames, camera=an.camera,
+                    style=picture_style(wf, line_px=4.0))
     return path.name
 
 
-def _vtu(folder, machines, results) -> list[str]:
+def _vtu(folder, machines, results, max_frames: int) -> list[str]:
     from pipeline.post.vtk_series import write_vtk_series
 
     files = []
@@ -276,7 +287,8 @@ def _vtu(folder, machines, results) -> list[str]:
                 continue
             m = machines[r.case]
             sub = folder / "vtk" / _stem(r)
-            pvd = write_vtk_series(sub, m.mechanism, machine_shapes(m), r.t, r.q, name=_stem(r))
+            pvd = write_vtk_series(sub, m.mechanism, machine_shapes(m), r.t, r.q, name=_stem(r),
+                                   max_steps=max_frames)
             files.append(str(Path(pvd).relative_to(folder)))
     return files
 
@@ -327,7 +339,7 @@ def write_outputs(folder: Path, wf, machines, results, timings: dict,
     if outs.exports.vtu:
         t0 = time.perf_counter()
         with stage(f"{wf.name}: ParaView series"):
-            files += _vtu(folder, machines, results)
+            files += _vtu(folder, machines, results, outs.exports.vtu_frames)
         timings["vtu"] = time.perf_counter() - t0
     for note in skipped:
         logger.warning("%s: %s", wf.name, note)

@@ -349,7 +349,9 @@ class ConvergenceSpec(Strict):
 class ExportSpec(Strict):
     csv: bool = True
     npz: bool = True
-    vtu: bool = False
+    vtu: bool = Field(False, description="ParaView time series (vtk/<analysis>/*.pvd)")
+    vtu_frames: int = Field(100, ge=1, le=5000, description="VTU frames per result at most "
+                                                            "(evenly thinned output times)")
 
 
 class OutputSpec(Strict):
