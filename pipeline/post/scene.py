@@ -116,7 +116,7 @@ class _Drawn:
             for X, fields, mesh in parts:
                 self.meshes.append((shape, X, fields, mesh))
                 is_line = mesh.n_lines > 0
-                kw = dict(line_width=lw, render_lines_as_tubes=True) if is_line else {}
+                kw = {"line_width": lw, "render_lines_as_tubes": True} if is_line else {}
                 if ghost:
                     plotter.add_mesh(mesh, style="wireframe" if not is_line else "surface",
                                      color="darkgrey", opacity=0.5,
@@ -201,7 +201,7 @@ def _bar(plotter, scale, clim):
         mesh.point_data[title] = [0.0]
         plotter.add_mesh(mesh, scalars=title, cmap="viridis", clim=clim, point_size=0.0,
                          opacity=0.0, show_scalar_bar=True,
-                         scalar_bar_args=dict(color="black", fmt="%.3g"))
+                         scalar_bar_args={"color": "black", "fmt": "%.3g"})
 
 
 def scene_bounds(mech, shapes, Q, scale) -> np.ndarray:

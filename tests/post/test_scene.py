@@ -10,8 +10,8 @@ import pytest
 
 from pipeline.kinematics import Joint, build_mechanism, flexible_link, rigid_link
 from pipeline.kinematics.rotations import translation
-from pipeline.post.shapes import LinkShape, shape_from_surface, stick_shape
 from pipeline.post.primitives import box_surface
+from pipeline.post.shapes import LinkShape, shape_from_surface, stick_shape
 
 REF = Path(__file__).parent / "reference"
 
