@@ -29,6 +29,7 @@ class Panel:
     ylabel: str
     curves: list = field(default_factory=list)
     xlim: tuple | None = None
+    equal: bool = False
 
 
 def plot_panels(path: str | Path, panels, *, suptitle: str | None = None,
@@ -44,11 +45,16 @@ def plot_panels(path: str | Path, panels, *, suptitle: str | None = None,
     fig, axes = plt.subplots(nrows, ncols, figsize=(7.5 * ncols, 3.4 * nrows + 0.6),
                              dpi=110, squeeze=False)
     for ax, p in zip(axes.ravel(), panels):
+        if p.curves and all(len(c.y) == 1 for c in p.curves):
+            _bars(ax, p)  # one value per case (statics): a bar chart, not dots over "time"
+            continue
         for c in p.curves:
             if c.style:
                 ax.plot(c.x, c.y, c.style, label=c.label)
             else:
                 ax.plot(c.x, c.y, label=c.label, marker="o" if len(c.x) < 15 else None)
+        if p.equal:  # a path: one metre is as long across as up
+            ax.set_aspect("equal", adjustable="datalim")
         ax.set_title(p.title, fontsize=10)
         ax.set_xlabel(p.xlabel)
         ax.set_ylabel(p.ylabel)
@@ -62,6 +68,18 @@ def plot_panels(path: str | Path, panels, *, suptitle: str | None = None,
     if suptitle:
         fig.suptitle(suptitle, fontsize=11)
     return save_figure(fig, path)
+
+
+def _bars(ax, p: Panel) -> None:
+    """One bar per curve (case), its value written on it."""
+    names = [c.label for c in p.curves]
+    values = [float(c.y[0]) for c in p.curves]
+    bars = ax.bar(names, values, color="tab:blue")
+    ax.bar_label(bars, labels=[f"{v:.4g}" for v in values], fontsize=8)
+    ax.axhline(0.0, color="black", lw=0.8)
+    ax.set_title(p.title, fontsize=10)
+    ax.set_ylabel(p.ylabel)
+    ax.grid(True, axis="y", alpha=0.3)
 
 
 def save_figure(fig, path: str | Path) -> Path:

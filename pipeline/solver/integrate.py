@@ -242,6 +242,7 @@ def _march(solver, rhs, te, y0, progress, out, stepper):
     dense output, so outputs never straddle a restart)."""
     t_out = 0.0
     rhs.accept(solver.t, solver.y)
+    dense, dense_of = None, None  # one interpolant per step, however many outputs it holds
     with progress_counter(te.size, "simulating", progress) as advance:
         for k, tk in enumerate(te):
             while solver.t < tk - _same_time(tk) and solver.status == "running":
@@ -254,7 +255,9 @@ def _march(solver, rhs, te, y0, progress, out, stepper):
             elif abs(solver.t - tk) <= _same_time(tk):  # on a step end: no interpolation
                 y = solver.y
             else:
-                y = solver.dense_output()(tk)
+                if dense_of != (solver.t_old, solver.t):
+                    dense, dense_of = solver.dense_output(), (solver.t_old, solver.t)
+                y = dense(tk)
             if not np.all(np.isfinite(y)):  # the step's interpolation stages failed
                 why = f" ({rhs.last_error})" if rhs.last_error else ""
                 return (f"the partitioned formulation cannot evaluate the state at t = "

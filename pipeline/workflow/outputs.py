@@ -122,6 +122,9 @@ def _plot(folder: Path, wf, machines, results, idx: int, p, skipped) -> str | No
     rs = _with_data(rs, f"plot {p.name!r}", skipped)
     if not rs:
         return None
+    from pipeline.post.units import DisplayUnits, to_display
+
+    units = DisplayUnits(**(p.units or wf.spec.outputs.units).model_dump())
     panels = []
     for s in p.series:
         curves, unit, label = [], "", s
@@ -132,13 +135,19 @@ def _plot(folder: Path, wf, machines, results, idx: int, p, skipped) -> str | No
                 x = series(r, mech, p.x) if s != "frequency" else None
             except ConfigError as exc:
                 raise wf.error("outputs", "plots", idx, msg=str(exc)) from None
-            xv = np.arange(1, y.values.size + 1) if x is None else x.values
-            curve_label = r.case or y.label
-            curves.append(Curve(curve_label, xv, y.values))
-            unit, label = y.unit, y.label
-            xl = "mode number" if x is None else f"{x.label}, {x.unit}"
+            yv, unit = to_display(y.values, y.unit, units)
+            if x is None:
+                xv, xl = np.arange(1, y.values.size + 1), "mode number"
+            else:
+                xv, xunit = to_display(x.values, x.unit, units)
+                xl = f"{x.label}, {xunit}"
+            curves.append(Curve(r.case or y.label, xv, yv))
+            label = y.label
+        # a path (a length against a length): equal axes, or the shape is distorted
+        equal = p.x.split(":")[0] in ("marker", "deflection") and \
+            s.split(":")[0] in ("marker", "deflection")
         panels.append(Panel(label if len(p.series) > 1 else (p.title or label), xl,
-                            p.ylabel or f"{label}, {unit}", curves))
+                            p.ylabel or f"{label}, {unit}", curves, equal=equal))
     path = folder / f"{p.name}.png"
     plot_panels(path, panels, suptitle=p.title if len(panels) > 1 else None)
     return path.name

@@ -303,6 +303,14 @@ Analysis = Annotated[
     | LinearisedAnalysis, Field(discriminator="type")]
 
 
+class UnitsSpec(Strict):
+    """Units plots are drawn in (exports stay SI)."""
+
+    length: Literal["m", "cm", "mm"] = "m"
+    force: Literal["N", "kN"] = "N"
+    angle: Literal["rad", "deg"] = "rad"
+
+
 class PlotSpec(Strict):
     name: Name
     analysis: str
@@ -311,6 +319,7 @@ class PlotSpec(Strict):
     title: str | None = None
     ylabel: str | None = None
     cases: list[str] | None = Field(None, description="case labels to draw (default all)")
+    units: UnitsSpec | None = Field(None, description="this plot's units (default outputs.units)")
 
 
 class RenderSpec(Strict):
@@ -360,6 +369,7 @@ class OutputSpec(Strict):
     animations: list[AnimationSpec] = Field(default_factory=list)
     convergence: list[ConvergenceSpec] = Field(default_factory=list)
     exports: ExportSpec = Field(default_factory=ExportSpec)
+    units: UnitsSpec = Field(default_factory=UnitsSpec, description="units of every plot")
 
 
 class WorkflowSpec(Strict):

@@ -7,6 +7,9 @@ time                     output time                                     s
 q:J1.theta (qd:, qdd:)   coordinate (rate, acceleration)                 rad, m
 marker:link.frame:z      marker origin in ground (x, y, z, norm)         m
 deflection:link.frame:z  elastic displacement of the marker, ground axes  m
+deflection:l.f:y@link    x, y, z in the body axes of ``link`` (a
+                         deflection in its own link's axes is signed and
+                         free of the link's rotation)
 energy:total             kinetic, gravity, elastic, forces, dissipated,  J
                          driver_work, total (dynamic runs)
 driver_force:LCYL.d      force a driver/held coordinate applies          N, N m
@@ -64,6 +67,39 @@ def marker_positions(mech, q: np.ndarray, link: str, frame: str, elastic_only: b
     return out
 
 
+def _marker_parts(spec: str, rest: str, mech) -> tuple[str, str, str | None]:
+    """(link.frame, component, axes link or None) of ``link.frame[:comp[@axes]]``."""
+    target, _, comp = rest.rpartition(":")
+    if not target:
+        target, comp = rest, "norm"
+    comp, _, axes = comp.partition("@")
+    if comp not in (*_COMPONENT, "norm"):
+        raise ConfigError(f"series {spec!r}: component {comp!r} is not x, y, z or norm "
+                          "(optionally @<link> for that link's axes)")
+    if axes == "ground":
+        axes = ""
+    if axes and axes not in mech.link_names:
+        raise ConfigError(f"series {spec!r}: axes {axes!r}: expected a link of "
+                          f"{list(mech.link_names)}")
+    return target, comp, axes or None
+
+
+def in_link_axes(mech, q: np.ndarray, link: str, P: np.ndarray, vectors: bool) -> np.ndarray:
+    """(T, 3) ground points (or, with ``vectors``, directions such as deflections) P over
+    the rows of q, expressed in the body axes of ``link`` (points relative to its origin).
+
+    A deflection in its own link's axes is the modal displacement of the marker in the
+    body frame: signed, and free of the link's rigid rotation.
+    """
+    li = mech.link_index(link)
+    out = np.empty_like(P)
+    for k, qk in enumerate(q):
+        A = evaluate_tree(mech, qk, derivatives=False).A[li]
+        v = P[k] if vectors else P[k] - A[:3, 3]
+        out[k] = A[:3, :3].T @ v
+    return out
+
+
 def series(result, mech, spec: str) -> Series:
     """Values (T,) of ``spec`` in ``result`` (an AnalysisResult of ``mech``).
 
@@ -86,20 +122,19 @@ def series(result, mech, spec: str) -> Series:
         return Series(arr[:, result.coordinates.index(rest)],
                       rest + ("", " rate", " acceleration")[order], _coordinate_unit(rest, order))
     if kind in ("marker", "deflection"):
-        target, _, comp = rest.rpartition(":")
-        if not target:
-            target, comp = rest, "norm"
+        target, comp, axes = _marker_parts(spec, rest, mech)
         link, _, frame = target.partition(".")
-        if comp not in (*_COMPONENT, "norm"):
-            raise ConfigError(f"series {spec!r}: component {comp!r} is not x, y, z or norm")
         try:
             P = marker_positions(mech, result.q, link, frame, elastic_only=kind == "deflection")
         except (ConfigError, KeyError, ValueError) as exc:
             raise ConfigError(f"series {spec!r}: expected an existing link.frame: {exc}") \
                 from None
+        if axes is not None:
+            P = in_link_axes(mech, result.q, axes, P, vectors=kind == "deflection")
         v = np.linalg.norm(P, axis=1) if comp == "norm" else P[:, _COMPONENT[comp]]
         what = "elastic deflection" if kind == "deflection" else "position"
-        return Series(v, f"{target} {what} {comp}", "m")
+        where = f" ({axes} axes)" if axes else ""
+        return Series(v, f"{target} {what} {comp}{where}", "m")
     if kind == "energy":
         if not result.energies:
             raise ConfigError(f"series {spec!r}: analysis '{result.name}' ({result.type}) has no "
@@ -159,15 +194,12 @@ def check_series(spec: str, mech, analysis_type: str) -> None:
         raise ConfigError(f"series {spec!r}: coordinate {rest!r} does not exist; "
                           f"coordinates: {list(mech.coordinates)}")
     if kind in ("marker", "deflection"):
-        target, _, comp = rest.rpartition(":")
-        target, comp = (target, comp) if target else (rest, "norm")
+        target, _, _ = _marker_parts(spec, rest, mech)
         link, _, frame = target.partition(".")
         if link not in mech.link_names or frame not in [
                 f.name for f in mech.links[mech.link_index(link)].frames]:
             raise ConfigError(f"series {spec!r}: expected an existing link.frame, got "
                               f"{target!r}")
-        if comp not in (*_COMPONENT, "norm"):
-            raise ConfigError(f"series {spec!r}: component {comp!r} is not x, y, z or norm")
     if kind == "energy" and analysis_type != "dynamic":
         raise ConfigError(f"series {spec!r}: only dynamic analyses have energies")
     if kind == "frequency" and analysis_type != "linearised":

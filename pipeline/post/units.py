@@ -1,0 +1,47 @@
+"""Display units of plotted series: SI values in, the engineer's units out (numpy only)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+LENGTH = {"m": 1.0, "cm": 1e2, "mm": 1e3}
+FORCE = {"N": 1.0, "kN": 1e-3}
+ANGLE = {"rad": 1.0, "deg": 180.0 / np.pi}
+
+
+@dataclass(frozen=True)
+class DisplayUnits:
+    """Units plots are drawn in: length (m, cm, mm), force (N, kN), angle (rad, deg)."""
+
+    length: str = "m"
+    force: str = "N"
+    angle: str = "rad"
+
+
+def to_display(values, unit: str, units: DisplayUnits) -> tuple[np.ndarray, str]:
+    """(values, unit) of an SI series converted to ``units``.
+
+    Lengths, forces and angles convert, also as the numerator of a rate ("m/s",
+    "rad/s²") and in moments ("N m" -> "kN mm"); other units pass unchanged.
+
+    >>> to_display([0.5], "rad", DisplayUnits(angle="deg"))[0].round(4).tolist()
+    [28.6479]
+    >>> to_display([2500.0], "N m", DisplayUnits(force="kN"))
+    (array([2.5]), 'kN m')
+    >>> to_display([0.01], "m/s", DisplayUnits(length="mm"))
+    (array([10.]), 'mm/s')
+    """
+    v = np.asarray(values, dtype=float)
+    head, slash, tail = unit.partition("/")
+    if head == "m":
+        return v * LENGTH[units.length], units.length + slash + tail
+    if head == "rad":
+        return v * ANGLE[units.angle], units.angle + slash + tail
+    if head == "N":
+        return v * FORCE[units.force], units.force + slash + tail
+    if head == "N m":  # moments in force x length units
+        return (v * FORCE[units.force] * LENGTH[units.length],
+                f"{units.force} {units.length}" + slash + tail)
+    return v, unit
