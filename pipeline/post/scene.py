@@ -306,7 +306,7 @@ def place_labels(anchors, sizes, window, taken=(), gap: float = 8.0) -> np.ndarr
     ``taken`` ((x0, y0, x1, y1) each).
 
     >>> place_labels([[100, 100], [102, 101]], [[60, 16], [60, 16]], (400, 300)).tolist()
-    [[108.0, 108.0], [110.0, 85.0]]
+    [[108.0, 108.0], [110.0, 77.0]]
     """
     anchors, sizes = np.asarray(anchors, float), np.asarray(sizes, float)
     boxes = [tuple(b) for b in taken]
