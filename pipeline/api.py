@@ -1,0 +1,103 @@
+"""The public Python API: every noun a user needs, from link geometry to pictures, under
+stable names (``from pipeline import api``; walked through in ``docs/python_api.md``).
+
+Units are SI throughout (m, kg, s, N, rad); shapes are in each function's docstring.
+
+Links
+    :func:`reduce_link` (a link spec YAML -> :class:`ReducedLink`: mesh, FE, modes,
+    invariants, cached by content), :func:`load_link_spec`, :func:`kept_modes` (the mode
+    filter: a count, indices, or only the modes moving in a plane).
+Mechanism (kinematics)
+    :func:`rigid_link`, :func:`link_from_reduced`, :class:`Joint` (types in :data:`JOINTS`),
+    :func:`build_mechanism`, :func:`initial_positions`, :func:`dof_report`, :func:`sweep`;
+    drivers :class:`Constant`, :class:`Ramp`, :class:`SmoothStep`, :class:`Harmonic`,
+    :class:`Table`.
+Dynamics
+    :class:`System`, :class:`BodyMass`, :func:`body_from_reduced`; force elements
+    :class:`SpringDamper`, :class:`JointSpringDamper`, :class:`PointForce`,
+    :class:`Torque`, :class:`ForceCylinder`; analyses :func:`static_equilibrium`,
+    :func:`kinetostatics` (with joint reactions), :func:`simulate` (checked transient:
+    ``result.verdict``), :func:`vibration_modes`, :func:`marker_motion`.
+Results
+    :func:`marker_positions`, :func:`in_link_axes` (deflection in any link's axes),
+    :func:`energies`.
+Pictures
+    :func:`machine_shapes` / :func:`shape_from_reduced`, :func:`render_machine`,
+    :func:`render_positions`, :func:`animate_machine`, :func:`render_modes`,
+    :func:`write_vtk_series`, :func:`plot_panels`.
+Workflows
+    :func:`load_workflow`, :func:`build_machine`, :func:`run_workflow`, :func:`series`.
+
+Importing this module is cheap: gmsh, scikit-fem and pyvista load only when a function
+that needs them runs.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pipeline.dynamics import (
+    BodyMass,
+    System,
+    body_from_reduced,
+    energies,
+    kinetostatics,
+    link_from_reduced,
+    marker_motion,
+    static_equilibrium,
+    vibration_modes,
+)
+from pipeline.dynamics.forces.loads import ForceCylinder, PointForce, Torque
+from pipeline.dynamics.forces.springs import JointSpringDamper, SpringDamper
+from pipeline.invariants.reduced_link import ReducedLink
+from pipeline.kinematics import JOINTS, Joint, build_mechanism, dof_report, rigid_link, sweep
+from pipeline.kinematics.driver_base import Constant
+from pipeline.kinematics.driver_table import Table
+from pipeline.kinematics.drivers import Harmonic, Ramp, SmoothStep
+from pipeline.kinematics.initial import initial_positions
+from pipeline.post.plots import Curve, Panel, plot_panels
+from pipeline.post.render import render_modes
+from pipeline.post.scene import Picture, Style, animate_machine, render_machine, render_positions
+from pipeline.post.shapes import LinkShape, shape_from_reduced
+from pipeline.post.vtk_series import write_vtk_series
+from pipeline.solver import Limits, SimulationResult, simulate
+from pipeline.workflow import build_machine, load_workflow, run_workflow
+from pipeline.workflow.build import kept_modes
+from pipeline.workflow.link_spec import load_link_spec
+from pipeline.workflow.outputs import machine_shapes
+from pipeline.workflow.series import in_link_axes, marker_positions, series
+
+
+def reduce_link(spec: str | Path, cache_dir: str | Path = "output/links",
+                rebuild: bool = False) -> ReducedLink:
+    """The reduced link of a link spec YAML (``docs/link_specs.md``).
+
+    Meshes (gmsh), assembles K and M (scikit-fem), computes the modes and the mass
+    invariants C, C'_a, C''_ab -- or reads them back from ``cache_dir`` when the spec and
+    the files it names are unchanged (content hash). Paths in the spec are relative to
+    the spec's folder.
+
+    Raises
+    ------
+    ConfigError
+        A bad spec: file:line: field: what was expected.
+    """
+    from pipeline.workflow.link_build import reduce_spec
+
+    spec = Path(spec)
+    link, _ = reduce_spec(load_link_spec(spec), spec.parent, Path(cache_dir), rebuild)
+    return link
+
+
+__all__ = [
+    "JOINTS", "BodyMass", "Constant", "Curve", "ForceCylinder", "Harmonic", "Joint",
+    "JointSpringDamper", "Limits", "LinkShape", "Panel", "Picture", "PointForce", "Ramp",
+    "ReducedLink", "SimulationResult", "SmoothStep", "SpringDamper", "Style", "System",
+    "Table", "Torque", "animate_machine", "body_from_reduced", "build_machine",
+    "build_mechanism", "dof_report", "energies", "in_link_axes", "initial_positions",
+    "kept_modes", "kinetostatics", "link_from_reduced", "load_link_spec", "load_workflow",
+    "machine_shapes", "marker_motion", "marker_positions", "plot_panels", "reduce_link",
+    "render_machine", "render_modes", "render_positions", "rigid_link", "run_workflow",
+    "series", "shape_from_reduced", "simulate", "static_equilibrium", "sweep",
+    "vibration_modes", "write_vtk_series",
+]
