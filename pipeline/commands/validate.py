@@ -26,10 +26,14 @@ def run(args: argparse.Namespace) -> int:
     if args.build:
         from pipeline.workflow.run import build_cases, check_outputs
 
+        import time
+
+        tic = time.perf_counter()
         m = build_machine(wf)
         check_outputs(wf, m)
         build_cases(wf, m, "output/links")
-        print(f"built: {m.mechanism.n} coordinates ({', '.join(m.mechanism.coordinates)})")
+        print(f"built in {time.perf_counter() - tic:.1f} s: {m.mechanism.n} coordinates "
+              f"({', '.join(m.mechanism.coordinates)})")
         for line in machine_report(m):
             print(f"  {line}")
     return 0
