@@ -24,9 +24,9 @@ def run(args: argparse.Namespace) -> int:
           f"{len(spec.joints)} joints, {len(spec.forces)} force elements, "
           f"{len(spec.analyses)} analyses ({', '.join(a.name for a in spec.analyses)})")
     if args.build:
-        from pipeline.workflow.run import build_cases, check_outputs
-
         import time
+
+        from pipeline.workflow.run import build_cases, check_outputs
 
         tic = time.perf_counter()
         m = build_machine(wf)

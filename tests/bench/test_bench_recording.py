@@ -70,7 +70,7 @@ def test_bench_recording_share():
     report = {"machine": "2-core shared VM, no GPU"}
     s, q0, qd0 = _slider_crank()
     for every in (0.01, 0.001):
-        te = np.linspace(0.0, 10.0, int(round(10.0 / every)) + 1)
+        te = np.linspace(0.0, 10.0, round(10.0 / every) + 1)
         simulate(s, q0, qd0, (0.0, 0.2), te[te <= 0.2], method="generalized_alpha",
                  step=1e-3, progress=False)  # compile
         r = simulate(s, q0, qd0, (0.0, 10.0), te, method="generalized_alpha", step=1e-3,

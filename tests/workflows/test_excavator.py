@@ -48,7 +48,7 @@ class PlanarExcavator:
                       (500.0, np.array([1.8 + 0.35, -0.15]))]       # bucket on stick.BUCKET
 
     def angles(self, d1, d2):
-        boom = lambda a, p: self.foot + _rot(a) @ p  # noqa: E731
+        boom = lambda a, p: self.foot + _rot(a) @ p
         a1 = brentq(lambda a: np.linalg.norm(boom(a, self.cyl) - self.bfoot) - d1, 0.0, 1.4)
         tip, scyl = boom(a1, self.tip), boom(a1, self.scyl)
         a2 = brentq(lambda a: np.linalg.norm(tip + _rot(a1 + a) @ self.lever - scyl) - d2,
@@ -57,8 +57,8 @@ class PlanarExcavator:
 
     def potential(self, d1, d2):
         a1, a2 = self.angles(d1, d2)
-        boom = lambda p: self.foot + _rot(a1) @ p  # noqa: E731
-        stick = lambda p: boom(self.tip) + _rot(a1 + a2) @ p  # noqa: E731
+        boom = lambda p: self.foot + _rot(a1) @ p
+        stick = lambda p: boom(self.tip) + _rot(a1 + a2) @ p
         y = self.boom_mass * boom(self.boom_com)[1]
         y += sum(m * stick(c)[1] for m, c in self.parts)
         for foot, end, mb, mr, cb in ((self.bfoot, boom(self.cyl), 120.0, 60.0, 0.4),
