@@ -19,7 +19,7 @@ Dynamics
     :func:`kinetostatics` (with joint reactions), :func:`simulate` (checked transient:
     ``result.verdict``), :func:`vibration_modes`, :func:`marker_motion`.
 Results
-    :func:`marker_positions`, :func:`in_link_axes` (deflection in any link's axes),
+    :func:`marker_positions` (positions and deflections in ground or any link's axes),
     :func:`energies`.
 Pictures
     :func:`machine_shapes` / :func:`shape_from_reduced`, :func:`render_machine`,
@@ -65,7 +65,7 @@ from pipeline.workflow import build_machine, load_workflow, run_workflow
 from pipeline.workflow.build import kept_modes
 from pipeline.workflow.link_spec import load_link_spec
 from pipeline.workflow.outputs import machine_shapes
-from pipeline.workflow.series import in_link_axes, marker_positions, series
+from pipeline.workflow.series import marker_positions, series
 
 
 def reduce_link(spec: str | Path, cache_dir: str | Path = "output/links",
@@ -94,7 +94,7 @@ __all__ = [
     "JointSpringDamper", "Limits", "LinkShape", "Panel", "Picture", "PointForce", "Ramp",
     "ReducedLink", "SimulationResult", "SmoothStep", "SpringDamper", "Style", "System",
     "Table", "Torque", "animate_machine", "body_from_reduced", "build_machine",
-    "build_mechanism", "dof_report", "energies", "in_link_axes", "initial_positions",
+    "build_mechanism", "dof_report", "energies", "initial_positions",
     "kept_modes", "kinetostatics", "link_from_reduced", "load_link_spec", "load_workflow",
     "machine_shapes", "marker_motion", "marker_positions", "plot_panels", "reduce_link",
     "render_machine", "render_modes", "render_positions", "rigid_link", "run_workflow",

@@ -50,19 +50,31 @@ def _coordinate_unit(name: str, order: int) -> str:
     return base + ("", "/s", "/s²")[order]
 
 
-def marker_positions(mech, q: np.ndarray, link: str, frame: str, elastic_only: bool = False):
-    """(T, 3) ground position of marker ``link.frame`` over the rows of q (T, n); with
-    ``elastic_only`` the displacement due to the link's own modal coordinates (ground axes)."""
+def marker_positions(mech, q: np.ndarray, link: str, frame: str, elastic_only: bool = False,
+                     axes: str | None = None):
+    """(T, 3) position of marker ``link.frame`` over the rows of q (T, n), m; with
+    ``elastic_only`` the displacement due to the link's own modal coordinates.
+
+    Ground axes by default; with ``axes`` (a link name) in that link's body axes, a
+    position relative to its origin. A deflection in its own link's axes is the modal
+    displacement of the marker in the body frame: signed, and free of the link's rigid
+    rotation.
+    """
     step = mech.marker(link, frame)
     li = mech.link_index(link)
+    ai = None if axes is None else mech.link_index(axes)
     out = np.empty((q.shape[0], 3))
     for k, qk in enumerate(q):
-        A = evaluate_tree(mech, qk, derivatives=False).A[step.frm]
+        poses = evaluate_tree(mech, qk, derivatives=False).A
+        A = poses[step.frm]
         p = (A @ step_local(step, qk, None, need_d=False)[0])[:3, 3]
         if elastic_only:
             q0 = qk.copy()
             q0[mech.modal_index[li]] = 0.0
             p = p - (A @ step_local(step, q0, None, need_d=False)[0])[:3, 3]
+        if ai is not None:
+            B = poses[ai]
+            p = B[:3, :3].T @ (p if elastic_only else p - B[:3, 3])
         out[k] = p
     return out
 
@@ -82,22 +94,6 @@ def _marker_parts(spec: str, rest: str, mech) -> tuple[str, str, str | None]:
         raise ConfigError(f"series {spec!r}: axes {axes!r}: expected a link of "
                           f"{list(mech.link_names)}")
     return target, comp, axes or None
-
-
-def in_link_axes(mech, q: np.ndarray, link: str, P: np.ndarray, vectors: bool) -> np.ndarray:
-    """(T, 3) ground points (or, with ``vectors``, directions such as deflections) P over
-    the rows of q, expressed in the body axes of ``link`` (points relative to its origin).
-
-    A deflection in its own link's axes is the modal displacement of the marker in the
-    body frame: signed, and free of the link's rigid rotation.
-    """
-    li = mech.link_index(link)
-    out = np.empty_like(P)
-    for k, qk in enumerate(q):
-        A = evaluate_tree(mech, qk, derivatives=False).A[li]
-        v = P[k] if vectors else P[k] - A[:3, 3]
-        out[k] = A[:3, :3].T @ v
-    return out
 
 
 def series(result, mech, spec: str) -> Series:
@@ -125,12 +121,11 @@ def series(result, mech, spec: str) -> Series:
         target, comp, axes = _marker_parts(spec, rest, mech)
         link, _, frame = target.partition(".")
         try:
-            P = marker_positions(mech, result.q, link, frame, elastic_only=kind == "deflection")
+            P = marker_positions(mech, result.q, link, frame,
+                                 elastic_only=kind == "deflection", axes=axes)
         except (ConfigError, KeyError, ValueError) as exc:
             raise ConfigError(f"series {spec!r}: expected an existing link.frame: {exc}") \
                 from None
-        if axes is not None:
-            P = in_link_axes(mech, result.q, axes, P, vectors=kind == "deflection")
         v = np.linalg.norm(P, axis=1) if comp == "norm" else P[:, _COMPONENT[comp]]
         what = "elastic deflection" if kind == "deflection" else "position"
         where = f" ({axes} axes)" if axes else ""
