@@ -99,9 +99,8 @@ class _Drawn:
 
     def __init__(self, plotter, pv, mech, shapes, q, scale, clim, style, opacity=1.0,
                  ghost=False):
-        self.mech, self.shapes, self.scale, self.ghost = mech, shapes, scale, ghost
+        self.mech, self.scale, self.ghost = mech, scale, ghost
         self.meshes = []
-        self.peak = 0.0
         poses = link_poses(mech, q)
         lw = style.line_px
         for shape in shapes.values():
@@ -140,7 +139,6 @@ class _Drawn:
             mesh.points = P
             if _SCALARS in mesh.point_data:
                 mesh.point_data[_SCALARS] = 1e3 * d
-                self.peak = max(self.peak, float(d.max(initial=0.0)))
 
 
 class _Pivots:
@@ -174,7 +172,7 @@ def label_anchors(mech, shapes, Q, scale, sample: int = 400) -> np.ndarray:
 
     clouds = []
     for q in Q:
-        P = np.vstack([posed_points(mech, s, q, scale)[0] for s in shapes.values()])
+        P = np.vstack(_drawn_points(mech, shapes, q, scale))
         clouds.append(P[:: max(1, len(P) // sample)])
     if len(clouds) == 1:
         return clouds[0][[int(np.argmax(np.linalg.norm(clouds[0] - clouds[0].mean(0), axis=1)))]]
@@ -206,9 +204,15 @@ def _bar(plotter, scale, clim):
 
 def scene_bounds(mech, shapes, Q, scale) -> np.ndarray:
     """(3, 2) min/max of every drawn point over the configurations Q, m."""
-    P = np.vstack([posed_points(mech, s, q, scale)[0] for q in Q for s in shapes.values()]
-                  + [joint_points(mech, q)[0] for q in Q])
+    P = np.vstack([p for q in Q for p in _drawn_points(mech, shapes, q, scale, joints=True)])
     return np.column_stack([P.min(axis=0), P.max(axis=0)])
+
+
+def _drawn_points(mech, shapes, q, scale, joints: bool = False) -> list[np.ndarray]:
+    """Ground points (m) of every link (and the joints) at q, the poses computed once."""
+    poses = link_poses(mech, q)
+    out = [posed_points(mech, s, q, scale, poses)[0] for s in shapes.values()]
+    return out + [joint_points(mech, q, poses)[0]] if joints else out
 
 
 def nice_length(x: float) -> float:

@@ -4,6 +4,7 @@ the displacement fields of the kept modes (numpy only; no pyvista here)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -29,7 +30,7 @@ class LinkShape:
     lines: np.ndarray | None = None
     modes: np.ndarray | None = None
 
-    @property
+    @cached_property
     def spine(self) -> tuple[np.ndarray, np.ndarray | None] | None:
         """Centre line of a slender surface: ((S, 3) points, (k, S, 3) modal fields or
         None), body frame, m; None for a link that is not slender or is drawn as lines.

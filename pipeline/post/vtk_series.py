@@ -8,11 +8,11 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-logger = logging.getLogger(__name__)
-
 from pipeline.core.atomic import atomic_open
 from pipeline.core.progress import progress_counter
 from pipeline.post.scene import link_poses, posed_points
+
+logger = logging.getLogger(__name__)
 
 
 def machine_grid(mech, shapes, q, scale: float = 1.0):

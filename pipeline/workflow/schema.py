@@ -13,6 +13,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
+from pipeline.post.units import ANGLE, FORCE, LENGTH
 from pipeline.workflow.link_spec import LinkSpec, Mat3, Strict, Vec3
 
 Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*$")]
@@ -306,9 +307,9 @@ Analysis = Annotated[
 class UnitsSpec(Strict):
     """Units plots are drawn in (exports stay SI)."""
 
-    length: Literal["m", "cm", "mm"] = "m"
-    force: Literal["N", "kN"] = "N"
-    angle: Literal["rad", "deg"] = "rad"
+    length: Literal[tuple(LENGTH)] = "m"
+    force: Literal[tuple(FORCE)] = "N"
+    angle: Literal[tuple(ANGLE)] = "rad"
 
 
 class PlotSpec(Strict):
