@@ -255,8 +255,8 @@ def _march(solver, rhs, te, y0, progress, out, stepper):
             elif abs(solver.t - tk) <= _same_time(tk):  # on a step end: no interpolation
                 y = solver.y
             else:
-                if dense_of != (solver.t_old, solver.t):
-                    dense, dense_of = solver.dense_output(), (solver.t_old, solver.t)
+                if dense_of != (solver, solver.t_old, solver.t):  # a restart makes a new solver
+                    dense, dense_of = solver.dense_output(), (solver, solver.t_old, solver.t)
                 y = dense(tk)
             if not np.all(np.isfinite(y)):  # the step's interpolation stages failed
                 why = f" ({rhs.last_error})" if rhs.last_error else ""
