@@ -10,7 +10,7 @@ result with the history up to that point, never an exception that loses it.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -19,6 +19,7 @@ from pipeline.core.errors import ConfigError
 from pipeline.dynamics import kinetostatics, static_equilibrium, vibration_modes
 from pipeline.kinematics import sweep
 from pipeline.workflow.build import Machine
+from pipeline.workflow.schema import StaticStart
 
 
 @dataclass(frozen=True)
@@ -95,16 +96,33 @@ def run_kinematic(m: Machine, a, path) -> dict:
     t = _times(a)
     r = sweep(m.mechanism, m.system.drivers, t, m.q0, _markers(m, a, path))
     n = r.n_done
-    return dict(success=r.success, message=r.message, t=t[:n], q=r.q[:n], qd=r.qd[:n],
-                qdd=r.qdd[:n], extra={"newton_iterations": r.newton_iterations[:n]})
+    return {
+        "success": r.success,
+        "message": r.message,
+        "t": t[:n],
+        "q": r.q[:n],
+        "qd": r.qd[:n],
+        "qdd": r.qdd[:n],
+        "extra": {"newton_iterations": r.newton_iterations[:n]},
+    }
 
 
 def run_static(m: Machine, a, path) -> dict:
     r = static_equilibrium(m.system, m.q0, t=a.t, hold=_hold(m, a.hold, *path, "hold"))
     z = np.zeros((1, m.mechanism.n))
-    return dict(success=r.success, message=r.message, t=np.array([a.t]), q=r.q[None, :],
-                qd=z, qdd=z.copy(), extra={"residual": r.residual, "iterations": r.iterations,
-                                           "unknowns": np.array(r.coordinates, dtype=object)})
+    return {
+        "success": r.success,
+        "message": r.message,
+        "t": np.array([a.t]),
+        "q": r.q[None, :],
+        "qd": z,
+        "qdd": z.copy(),
+        "extra": {
+            "residual": r.residual,
+            "iterations": r.iterations,
+            "unknowns": np.array(r.coordinates, dtype=object),
+        },
+    }
 
 
 def run_kinetostatic(m: Machine, a, path) -> dict:
@@ -116,20 +134,36 @@ def run_kinetostatic(m: Machine, a, path) -> dict:
     extra = {}
     if a.reactions and r.reactions:
         extra["reactions"] = r.reactions
-    return dict(success=r.success, message=r.message, t=r.t[:n], q=r.q[:n], qd=r.qd[:n],
-                qdd=r.qdd[:n], forces=forces, extra=extra)
+    return {
+        "success": r.success,
+        "message": r.message,
+        "t": r.t[:n],
+        "q": r.q[:n],
+        "qd": r.qd[:n],
+        "qdd": r.qdd[:n],
+        "forces": forces,
+        "extra": extra,
+    }
 
 
 def run_dynamic(m: Machine, a, path) -> dict:
     from pipeline.solver import Limits, simulate
 
-    q0 = m.q0
-    if a.start == "static":
-        r = static_equilibrium(m.system, m.q0)
+    q0, system = m.q0, m.system
+    if a.start != "initial":
+        start = StaticStart() if a.start == "static" else a.start
+        system = _released(m, start.loads, (*path, "start", "loads"))
+        r = static_equilibrium(m.system, m.q0,
+                               hold=_hold(m, start.hold, *path, "start", "hold"))
         if not r.success:
-            return dict(success=False, message=f"static start: {r.message}", t=np.zeros(0),
-                        q=np.zeros((0, m.mechanism.n)), qd=np.zeros((0, m.mechanism.n)),
-                        qdd=np.zeros((0, m.mechanism.n)))
+            return {
+                "success": False,
+                "message": f"static start: {r.message}",
+                "t": np.zeros(0),
+                "q": np.zeros((0, m.mechanism.n)),
+                "qd": np.zeros((0, m.mechanism.n)),
+                "qdd": np.zeros((0, m.mechanism.n)),
+            }
         q0 = r.q
     opts: dict[str, Any] = {}
     if a.max_step is not None:
@@ -143,7 +177,7 @@ def run_dynamic(m: Machine, a, path) -> dict:
     limits = Limits(energy=c.energy, closure=c.closure, deformation=c.deformation,
                     rotation=c.rotation, min_step=c.min_step)
     try:
-        r = simulate(m.system, q0, m.qd0, (0.0, a.t_end), t_eval=_times(a), method=a.method,
+        r = simulate(system, q0, m.qd0, (0.0, a.t_end), t_eval=_times(a), method=a.method,
                      rtol=a.rtol, atol=a.atol, progress=True, formulation=a.formulation,
                      max_steps=a.max_steps, max_wall=a.max_wall, limits=limits, **opts)
     except ConfigError as exc:
@@ -153,9 +187,32 @@ def run_dynamic(m: Machine, a, path) -> dict:
              "method": r.method, "formulation": r.formulation}
     if r.multipliers.size:
         extra["multipliers"] = r.multipliers
-    return dict(success=r.success, message=r.message, t=r.t, q=r.q, qd=r.qd, qdd=r.qdd,
-                forces=forces, energies=dict(r.energies), extra=extra, verdict=r.verdict,
-                warnings=tuple(r.warnings))
+    return {
+        "success": r.success,
+        "message": r.message,
+        "t": r.t,
+        "q": r.q,
+        "qd": r.qd,
+        "qdd": r.qdd,
+        "forces": forces,
+        "energies": dict(r.energies),
+        "extra": extra,
+        "verdict": r.verdict,
+        "warnings": tuple(r.warnings),
+    }
+
+
+def _released(m: Machine, loads, path):
+    """The machine's system without the force elements named in ``loads`` (a static start's
+    loads, released at t = 0)."""
+    names = [f.name for f in m.system.forces]
+    for i, name in enumerate(loads):
+        if name not in names:
+            raise m.workflow.error(*path, i, msg=f"expected a force element of this workflow, "
+                                                 f"got {name!r} (force elements: {names})")
+    if not loads:
+        return m.system
+    return replace(m.system, forces=tuple(f for f in m.system.forces if f.name not in loads))
 
 
 def run_linearised(m: Machine, a, path) -> dict:
@@ -164,8 +221,14 @@ def run_linearised(m: Machine, a, path) -> dict:
     if a.start == "static":
         r = static_equilibrium(m.system, m.q0, t=a.t, hold=_hold(m, a.hold, *path, "hold"))
         if not r.success:
-            return dict(success=False, message=f"static start: {r.message}", t=np.array([a.t]),
-                        q=r.q[None, :], qd=np.zeros((1, r.q.size)), qdd=np.zeros((1, r.q.size)))
+            return {
+                "success": False,
+                "message": f"static start: {r.message}",
+                "t": np.array([a.t]),
+                "q": r.q[None, :],
+                "qd": np.zeros((1, r.q.size)),
+                "qdd": np.zeros((1, r.q.size)),
+            }
         q = r.q
     v = vibration_modes(m.system, q, t=a.t, hold=_hold(m, a.hold, *path, "hold"))
     k = min(a.count, v.omega.size)
@@ -175,8 +238,15 @@ def run_linearised(m: Machine, a, path) -> dict:
              "damping_ratios": v.damping_ratios[:k], "shapes": v.shapes[:, :k],
              "shapes_q": v.shapes_q[:, :k], "M": lm.M, "K": lm.K, "C": lm.C, "B": lm.B,
              "x_coordinates": np.array(lm.coordinates, dtype=object)}
-    return dict(success=True, message=msg, t=np.array([a.t]), q=q[None, :], qd=z, qdd=z.copy(),
-                extra=extra)
+    return {
+        "success": True,
+        "message": msg,
+        "t": np.array([a.t]),
+        "q": q[None, :],
+        "qd": z,
+        "qdd": z.copy(),
+        "extra": extra,
+    }
 
 
 RUNNERS = {"kinematic": run_kinematic, "static": run_static, "kinetostatic": run_kinetostatic,
@@ -189,13 +259,17 @@ def run_analysis(m: Machine, name: str) -> AnalysisResult:
     i, a = next((i, a) for i, a in enumerate(wf.spec.analyses) if a.name == name)
     t0 = time.perf_counter()
     if a.initial is not None:
-        from dataclasses import replace
-
         from pipeline.workflow.build import initial_state
 
         q0, qd0 = initial_state(wf, m.mechanism, m.system.drivers, a.initial,
                                 ("analyses", i, "initial"))
         m = replace(m, q0=q0, qd0=qd0)
     out = RUNNERS[a.type](m, a, ("analyses", i))
-    return AnalysisResult(name=a.name, type=a.type, case=wf.case, coordinates=m.mechanism.coordinates,
-                          timings={"total": time.perf_counter() - t0}, **out)
+    return AnalysisResult(
+        name=a.name,
+        type=a.type,
+        case=wf.case,
+        coordinates=m.mechanism.coordinates,
+        timings={"total": time.perf_counter() - t0},
+        **out,
+    )

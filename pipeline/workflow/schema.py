@@ -258,6 +258,26 @@ class ChecksSpec(Strict):
     min_step: float = Field(1e-9, gt=0, description="smallest step relative to the span")
 
 
+class StaticStart(Strict):
+    """A dynamic run's start from static equilibrium, optionally under loads released at
+    t = 0 (a pluck test): the start is the equilibrium with every force element, the run
+    goes on without the ``loads`` ones."""
+
+    hold: list[str] = Field(default_factory=list, description="coordinates held at their "
+                                                              "initial values in the start")
+    loads: list[str] = Field(default_factory=list, description="force elements applied only "
+                                                               "to find the start (released "
+                                                               "at t = 0)")
+
+    @field_validator("loads")
+    @classmethod
+    def _unique(cls, value: list[str]) -> list[str]:
+        dup = sorted({x for x in value if value.count(x) > 1})
+        if dup:
+            raise ValueError(f"force elements listed twice: {dup}")
+        return value
+
+
 class DynamicAnalysis(_Timed):
     type: Literal["dynamic"]
     method: str = Field("DOP853", description="DOP853 | Radau | BDF | RK45 | LSODA | "
@@ -275,8 +295,10 @@ class DynamicAnalysis(_Timed):
     step: float | None = Field(None, gt=0, description="fixed step (generalized_alpha; "
                                                        "adaptive when absent in the DAE), s")
     rho_inf: float = Field(0.8, ge=0, le=1, description="generalized_alpha spectral radius")
-    start: Literal["initial", "static"] = Field(
-        "initial", description="start from the initial state or from static equilibrium")
+    start: Literal["initial", "static"] | StaticStart = Field(
+        "initial", description="start from the initial state, from static equilibrium, or "
+                               "{hold: [...], loads: [...]}: static equilibrium with coordinates "
+                               "held and loads released at t = 0")
 
     @model_validator(mode="after")
     def _within_budget(self):
