@@ -1,20 +1,42 @@
 """Progress reporting for long work (meshing, assembly, eigen solves, runs).
 
-Library code reports through :func:`stage` (timed, logged) and
-:func:`progress_bar` (a rich progress bar on an interactive stderr, silent
-otherwise); only the CLI decides the logging level.
+Library code reports through :func:`stage` (timed, logged; a spinner on an
+interactive stderr), :func:`report` (what the innermost stage is doing now: a
+count, or a table such as the worker cases'), and :func:`progress_bar` /
+:func:`progress_counter` (rich progress bars). Off a terminal, and in worker
+processes (:func:`quiet`), only the log remains; only the CLI decides the
+logging level.
 """
 
 from __future__ import annotations
 
 import contextlib
 import logging
+import os
 import sys
 import time
 from collections.abc import Iterable, Iterator
+from contextvars import ContextVar
 from dataclasses import dataclass, field
+from typing import Any
 
 logger = logging.getLogger(__name__)
+
+#: set in worker processes: their stderr is the parent's terminal, which shows the table
+QUIET_ENV = "PIPELINE_QUIET_PROGRESS"
+
+#: (rich Status, stage name) of the innermost stage showing a spinner, if any
+_current: ContextVar[tuple[Any, str] | None] = ContextVar("pipeline_stage", default=None)
+
+
+def interactive() -> bool:
+    """True when progress is drawn: stderr is a terminal and this is not a worker."""
+    return sys.stderr.isatty() and not os.environ.get(QUIET_ENV)
+
+
+def quiet() -> None:
+    """No progress drawing in this process from now on (worker processes)."""
+    os.environ[QUIET_ENV] = "1"
 
 
 @dataclass
@@ -40,19 +62,38 @@ def stage(name: str, times: StageTimes | None = None) -> Iterator[None]:
     """
     t0 = time.perf_counter()
     status = _spinner(name)
+    token = _current.set((status, name)) if status is not None else None
     try:
-        with status:
+        with status if status is not None else contextlib.nullcontext():
             yield
     finally:
+        if token is not None:
+            _current.reset(token)
         dt = time.perf_counter() - t0
         if times is not None:
             times.seconds[name] = times.seconds.get(name, 0.0) + dt
         logger.info("%s: %.3f s", name, dt)
 
 
+def report(what) -> None:
+    """Show what the innermost running :func:`stage` is doing now, under its name: a
+    short text (``"Lanczos: 40 solves"``) or a rich renderable (a table). Nothing when no
+    stage draws (off a terminal); cheap enough to call in a loop."""
+    line = _current.get()
+    if line is None:
+        return
+    status, name = line
+    if isinstance(what, str):
+        status.update(f"{name}: {what}")
+    else:
+        from rich.console import Group
+
+        status.update(Group(name, what))
+
+
 def progress_bar(iterable: Iterable, total: int | None = None, description: str = "") -> Iterator:
     """Iterate with a progress bar on an interactive terminal; plain iteration otherwise."""
-    if not sys.stderr.isatty():
+    if not interactive():
         yield from iterable
         return
     from rich.progress import track
@@ -64,7 +105,7 @@ def progress_bar(iterable: Iterable, total: int | None = None, description: str 
 def progress_counter(total: int, description: str = "", enabled: bool = True):
     """Context giving ``advance(k)``: the bar shows k of ``total`` done (a rich progress
     bar on an interactive stderr; nothing otherwise)."""
-    if not (enabled and sys.stderr.isatty()):
+    if not (enabled and interactive()):
         yield lambda k: None
         return
     from rich.progress import Progress
@@ -75,8 +116,23 @@ def progress_counter(total: int, description: str = "", enabled: bool = True):
 
 
 def _spinner(name: str):
-    if not sys.stderr.isatty():
-        return contextlib.nullcontext()
+    if not interactive():
+        return None
     from rich.console import Console
 
     return Console(stderr=True).status(name)
+
+
+def task_table(rows: Iterable[tuple[str, str, float | None]], title: str = ""):
+    """A rich table of tasks for :func:`report`: rows of (task, state, seconds so far or
+    None), e.g. the analysis cases on worker processes. A state other than queued,
+    running or ok is drawn in red."""
+    from rich.table import Table
+
+    table = Table(title=title or None, box=None, pad_edge=False)
+    for col, justify in (("case", "left"), ("state", "left"), ("s", "right")):
+        table.add_column(col, justify=justify)
+    for name, state, seconds in rows:
+        style = "" if state in ("queued", "running", "ok") else "red"
+        table.add_row(name, state, "" if seconds is None else f"{seconds:.1f}", style=style)
+    return table

@@ -18,6 +18,7 @@ also in shift-invert form so that the low modes keep full relative accuracy.
 from __future__ import annotations
 
 import logging
+import time
 
 import numpy as np
 import scipy.linalg as la
@@ -25,6 +26,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from pipeline.core.errors import ConfigError, ModalError
+from pipeline.core.progress import report
 
 logger = logging.getLogger(__name__)
 
@@ -132,15 +134,29 @@ def _solve(K, M, k, sigma, ordering, lu, where):
                              f"the model is not fully constrained or sigma is above the first "
                              f"eigenvalue") from exc
         return sigma + 1.0 / mu[::-1], X[:, ::-1]
+    t0 = time.perf_counter()
     if lu is None:
+        report(f"factorising K - sigma M ({n} DOFs)")
         lu = factorize(_shifted(K, M, sigma), ordering, where=where)
-    op = spla.LinearOperator((n, n), matvec=lu.solve, dtype=float)
+    t1 = time.perf_counter()
+    solves = 0
+
+    def apply(x):
+        # one Lanczos step is one solve with the factor: the count is the progress
+        nonlocal solves
+        solves += 1
+        if solves % 10 == 0:
+            report(f"Lanczos, {k} modes: {solves} solves, {time.perf_counter() - t1:.1f} s")
+        return lu.solve(x)
+
+    op = spla.LinearOperator((n, n), matvec=apply, dtype=float)
     # fixed start vector: the same input gives the same vectors (degenerate pairs too)
     v0 = np.random.default_rng(0).standard_normal(n)
     lam, X = spla.eigsh(K, k=k, M=M, sigma=sigma, which="LM", OPinv=op, v0=v0, tol=0.0)
     order = np.argsort(lam)
-    logger.debug("%s: %d eigenpairs, omega^2 in [%.4g, %.4g]", where, k, lam[order[0]],
-                 lam[order[-1]])
+    logger.info("%s: %d eigenpairs of %d DOFs: factor %.2f s, Lanczos %d solves %.2f s, "
+                "omega^2 in [%.4g, %.4g]", where, k, n, t1 - t0, solves,
+                time.perf_counter() - t1, lam[order[0]], lam[order[-1]])
     return lam[order], X[:, order]
 
 

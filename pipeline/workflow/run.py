@@ -23,7 +23,7 @@ import numpy as np
 
 from pipeline.core.atomic import folder_lock, replace_dir
 from pipeline.core.errors import ConfigError, PipelineError
-from pipeline.core.progress import stage
+from pipeline.core.progress import quiet, report, stage, task_table
 from pipeline.workflow.analyses import AnalysisResult, run_analysis
 from pipeline.workflow.build import Machine, build_machine
 from pipeline.workflow.link_build import versions
@@ -139,13 +139,14 @@ def _run_parallel(wf, base, tasks, cache, machines, cache_dir, rebuild, workers,
     """Analysis cases in ``workers`` processes; machines for the outputs are rebuilt here
     from the cached reductions (a System holds mapping proxies, which do not pickle). Each
     case's result is kept as it arrives: a worker that dies (killed, out of memory) costs
-    only the cases it had not finished, which come back failed with the reason."""
+    only the cases it had not finished, which come back failed with the reason. Workers
+    draw no progress (their stderr is this terminal, which shows the table of cases)."""
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
     t0 = time.perf_counter()
     with stage(f"{wf.name}: {len(tasks)} analysis cases on {workers} processes"), \
-            ProcessPoolExecutor(max_workers=workers,
+            ProcessPoolExecutor(max_workers=workers, initializer=quiet,
                                 mp_context=multiprocessing.get_context("spawn")) as pool:
         done = collect_cases(pool, wf, base, tasks, cache_dir, rebuild)
     timings["analyses (parallel)"] = time.perf_counter() - t0
@@ -160,25 +161,48 @@ def _run_parallel(wf, base, tasks, cache, machines, cache_dir, rebuild, workers,
 def collect_cases(pool, wf, base, tasks, cache_dir, rebuild) -> list[AnalysisResult]:
     """Submit every (analysis, case) of ``tasks`` to ``pool`` (a concurrent.futures
     executor) and gather the results in order; a case whose worker died is a failed
-    result naming the cause. An error raised by a case (bad input) is raised here."""
-    from concurrent.futures import as_completed
+    result naming the cause. An error raised by a case (bad input) is raised here.
+
+    Progress: a live table of the cases (queued, running, ok / partial / failed, seconds)
+    under the running stage on a terminal; a log line per finished case otherwise."""
+    from concurrent.futures import FIRST_COMPLETED, wait
     from concurrent.futures.process import BrokenProcessPool
 
     futures = {pool.submit(_case_result, wf, case.set if case else {},
                            case.label if case else "", a.name, cache_dir, rebuild): k
                for k, (a, case) in enumerate(tasks)}
+    names = [f"{a.name}" + (f" / {case.label}" if case else "") for a, case in tasks]
+    state = ["queued"] * len(tasks)
+    began: list[float | None] = [None] * len(tasks)
+    took: list[float | None] = [None] * len(tasks)
     done: list = [None] * len(tasks)
-    for fut in as_completed(futures):
-        k = futures[fut]
-        try:
-            done[k] = fut.result()
-        except BrokenProcessPool:
+    pending = set(futures)
+    while pending:
+        finished, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
+        now = time.perf_counter()
+        for fut in finished:
+            k = futures[fut]
             a, case = tasks[k]
-            done[k] = lost_case(base, a, case.label if case else "",
-                                "its worker process died (killed, or out of memory) before "
-                                "the case finished")
-            logger.warning("%s: analysis %r%s: %s", wf.name, a.name,
-                           f" case {case.label!r}" if case else "", done[k].message)
+            try:
+                done[k] = fut.result()
+                state[k] = done[k].verdict
+            except BrokenProcessPool:
+                done[k] = lost_case(base, a, case.label if case else "",
+                                    "its worker process died (killed, or out of memory) "
+                                    "before the case finished")
+                logger.warning("%s: analysis %r%s: %s", wf.name, a.name,
+                               f" case {case.label!r}" if case else "", done[k].message)
+                state[k] = "lost"
+            took[k] = done[k].timings.get("total", now - (began[k] or now))
+            logger.info("%s: %s: %s in %.1f s (%d of %d cases done)", wf.name, names[k],
+                        state[k], took[k], sum(d is not None for d in done), len(tasks))
+        for fut in pending:
+            k = futures[fut]
+            if fut.running() and began[k] is None:
+                began[k], state[k] = now, "running"
+        report(task_table([(names[k], state[k], took[k] if took[k] is not None else
+                            (now - began[k] if began[k] is not None else None))
+                           for k in range(len(tasks))]))
     return done
 
 

@@ -6,6 +6,7 @@ alias bomb."""
 from __future__ import annotations
 
 import json
+import logging
 import os
 import signal
 import subprocess
@@ -565,7 +566,7 @@ def test_pipeline_reduce_names_the_spec_line_of_a_failing_interface(tmp_path):
     assert "end_x9" in r.stderr
 
 
-def test_cases_finished_before_a_worker_died_are_kept(tmp_path):
+def test_cases_finished_before_a_worker_died_are_kept(tmp_path, caplog):
     """A worker killed mid-study (BrokenProcessPool) used to throw away every case; the
     collection keeps what finished and marks the rest failed with the reason."""
     from concurrent.futures import Future
@@ -593,10 +594,33 @@ def test_cases_finished_before_a_worker_died_are_kept(tmp_path):
             self.n += 1
             return fut
 
-    slow, fast = collect_cases(DyingPool(), wf, base, tasks, tmp_path / "links", False)
+    with caplog.at_level(logging.INFO, logger="pipeline.workflow.run"):
+        slow, fast = collect_cases(DyingPool(), wf, base, tasks, tmp_path / "links", False)
     assert slow.success and slow.case == "slow" and len(slow.t) == 73
     assert not fast.success and fast.case == "fast" and fast.verdict == "partial"
     assert "worker process died" in fast.message and len(fast.t) == 0
+    # progress off a terminal: one line per finished case, with its state and the count
+    done = [r.getMessage() for r in caplog.records if "cases done" in r.getMessage()]
+    assert len(done) == 2
+    assert any("turn / slow: ok in" in m for m in done)
+    assert any("turn / fast: lost in" in m for m in done)
+    assert done[-1].endswith("(2 of 2 cases done)")
+
+
+def test_task_table_shows_each_case_state_and_seconds():
+    from rich.console import Console
+
+    from pipeline.core.progress import task_table
+
+    console = Console(record=True, width=60, color_system=None)
+    console.print(task_table([("swing / rigid", "ok", 12.34), ("swing / 3 modes", "running",
+                                                                  3.0),
+                              ("swing / 6 modes", "queued", None)]))
+    lines = console.export_text().splitlines()
+    assert lines[0].split() == ["case", "state", "s"]
+    assert lines[1].split() == ["swing", "/", "rigid", "ok", "12.3"]
+    assert lines[2].split() == ["swing", "/", "3", "modes", "running", "3.0"]
+    assert lines[3].split() == ["swing", "/", "6", "modes", "queued"]
 
 
 def test_set_values_are_plain_data_with_the_same_limits(tmp_path):
