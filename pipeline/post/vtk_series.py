@@ -44,25 +44,33 @@ def machine_grid(mech, shapes, q, scale: float = 1.0):
             {"link_id": ids})
 
 
+def _evenly(n: int, most: int) -> np.ndarray:
+    """At most ``most`` indices of range(n), evenly spread, first and last included."""
+    return np.unique(np.linspace(0, n - 1, min(most, n)).round().astype(int))
+
+
 def write_vtk_series(folder, mech, shapes, t, Q, *, scale: float = 1.0, name: str = "machine",
-                     max_steps: int = 100) -> Path:
+                     max_steps: int = 100, max_bytes: float | None = None) -> Path:
     """Write ``folder/<name>_<k>.vtu`` (at most ``max_steps``, evenly thinned) and
     ``folder/<name>.pvd``; point data: elastic displacement (ground axes, m) and its
     magnitude; cell data: link_id (index in ``shapes``). Returns the .pvd path.
 
     Points and fields are written in single precision (zlib-compressed): a picture
     needs no more, and it halves the files. The size of the series is estimated from
-    the first frame and logged; a terminal shows a progress bar.
+    the first frame and logged; beyond ``max_bytes`` the frames are thinned further
+    (evenly, at least 2). A terminal shows a progress bar.
     """
     import meshio
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     t = np.asarray(t, dtype=float)
-    picks = np.unique(np.linspace(0, len(t) - 1, min(max_steps, len(t))).round().astype(int))
+    picks = _evenly(len(t), max_steps)
     entries = []
     with progress_counter(len(picks), f"VTU {name}") as advance:
-        for n, k in enumerate(picks):
+        n = 0
+        while n < len(picks):
+            k = picks[n]
             P, cells, pdata, cdata = machine_grid(mech, shapes, Q[k], scale)
             fname = f"{name}_{k:05d}.vtu"
             mesh = meshio.Mesh(P.astype(np.float32),
@@ -73,10 +81,18 @@ def write_vtk_series(folder, mech, shapes, t, Q, *, scale: float = 1.0, name: st
             meshio.write(folder / fname, mesh)
             if n == 0:
                 size = (folder / fname).stat().st_size
+                if max_bytes is not None and size * len(picks) > max_bytes:
+                    # 10 % margin: compressed frames differ in size
+                    fit = max(2, int(0.9 * max_bytes // size))
+                    logger.info("VTU %s: %d frames of %.2f MB exceed the budget of %.1f MB; "
+                                "thinned to %d", name, len(picks), size / 1e6, max_bytes / 1e6,
+                                min(fit, len(picks)))
+                    picks = _evenly(len(t), min(fit, len(picks)))  # starts at frame 0 too
                 logger.info("VTU %s: %d frames, about %.1f MB", name, len(picks),
                             size * len(picks) / 1e6)
             entries.append(f'    <DataSet timestep="{t[k]:.9g}" part="0" file={quoteattr(fname)}/>')
-            advance(n + 1)
+            n += 1
+            advance(n)
     pvd = folder / f"{name}.pvd"
     with atomic_open(pvd, "w") as fh:
         fh.write('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'

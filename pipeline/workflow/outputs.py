@@ -286,19 +286,24 @@ def _animate(folder, wf, machines, results, idx, an, skipped) -> str | None:
     return path.name
 
 
-def _vtu(folder, machines, results, max_frames: int) -> list[str]:
+def _vtu(folder, machines, results, max_frames: int, budget_mb: float | None) -> list[str]:
+    """One series per result with data. The run's size budget is shared out in order of
+    length: what a short series (a static case: one frame) leaves goes to the longer ones."""
     from pipeline.post.vtk_series import write_vtk_series
 
     files = []
-    for rs in results.values():
-        for r in rs:
-            if len(r.t) < 1:
-                continue
-            m = machines[r.case]
-            sub = folder / "vtk" / _stem(r)
-            pvd = write_vtk_series(sub, m.mechanism, machine_shapes(m), r.t, r.q, name=_stem(r),
-                                   max_steps=max_frames)
-            files.append(str(Path(pvd).relative_to(folder)))
+    todo = sorted((r for rs in results.values() for r in rs if len(r.t) >= 1),
+                  key=lambda r: min(len(r.t), max_frames))
+    left = None if budget_mb is None else budget_mb * 1e6
+    for i, r in enumerate(todo):
+        m = machines[r.case]
+        sub = folder / "vtk" / _stem(r)
+        share = None if left is None else left / (len(todo) - i)
+        pvd = write_vtk_series(sub, m.mechanism, machine_shapes(m), r.t, r.q, name=_stem(r),
+                               max_steps=max_frames, max_bytes=share)
+        if left is not None:
+            left -= sum(p.stat().st_size for p in sub.iterdir())
+        files.append(str(Path(pvd).relative_to(folder)))
     return files
 
 
@@ -348,7 +353,8 @@ def write_outputs(folder: Path, wf, machines, results, timings: dict,
     if outs.exports.vtu:
         t0 = time.perf_counter()
         with stage(f"{wf.name}: ParaView series"):
-            files += _vtu(folder, machines, results, outs.exports.vtu_frames)
+            files += _vtu(folder, machines, results, outs.exports.vtu_frames,
+                          outs.exports.vtu_mb)
         timings["vtu"] = time.perf_counter() - t0
     for note in skipped:
         logger.warning("%s: %s", wf.name, note)

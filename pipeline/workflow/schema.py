@@ -384,6 +384,9 @@ class ExportSpec(Strict):
     vtu: bool = Field(False, description="ParaView time series (vtk/<analysis>/*.pvd)")
     vtu_frames: int = Field(100, ge=1, le=5000, description="VTU frames per result at most "
                                                             "(evenly thinned output times)")
+    vtu_mb: float | None = Field(40.0, gt=0, description="size budget of all VTU series of a "
+                                                         "run, MB: frames are thinned further "
+                                                         "to stay within it (null: none)")
 
 
 class OutputSpec(Strict):

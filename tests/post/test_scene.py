@@ -122,6 +122,29 @@ def test_vtu_series_reads_back(tmp_path):
                                atol=1e-6 * db.max())
 
 
+def test_vtu_series_stays_within_its_size_budget(tmp_path):
+    """Beyond max_bytes the frames are thinned evenly (first and last kept) so the folder
+    stays within the budget; without one, max_steps rules."""
+    import xml.etree.ElementTree as ET
+
+    from pipeline.post.vtk_series import write_vtk_series
+
+    mech, shapes = _machine()
+    t = np.linspace(0, 1, 41)
+    Q = np.column_stack([t, -t, 0.2 * t, 0.1 * t])
+    pvd = write_vtk_series(tmp_path / "all", mech, shapes, t, Q, name="m", max_steps=40)
+    frame = max(p.stat().st_size for p in (tmp_path / "all").glob("*.vtu"))
+    assert len(ET.parse(pvd).getroot().find("Collection").findall("DataSet")) == 40
+    budget = 10.5 * frame
+    pvd = write_vtk_series(tmp_path / "cut", mech, shapes, t, Q, name="m", max_steps=40,
+                           max_bytes=budget)
+    items = ET.parse(pvd).getroot().find("Collection").findall("DataSet")
+    assert 8 <= len(items) <= 10
+    assert [float(items[i].get("timestep")) for i in (0, -1)] == [0.0, 1.0]
+    written = sum(p.stat().st_size for p in (tmp_path / "cut").glob("*.vtu"))
+    assert written <= budget and len(list((tmp_path / "cut").glob("*.vtu"))) == len(items)
+
+
 def test_plot_png(tmp_path):
     from PIL import Image
 
