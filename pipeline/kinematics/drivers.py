@@ -42,6 +42,7 @@ __all__ = [
     "Harmonic",
     "Ramp",
     "SmoothStep",
+    "SpinUp",
     "SumDriver",
     "Table",
     "driver_from_dict",
@@ -187,9 +188,53 @@ class Harmonic(Driver):
                    number(d, "offset", where, 0.0))
 
 
+@dataclass(frozen=True)
+class SpinUp(Driver):
+    """Spin-up to a final rate: q' = rate (tau - sin(2 pi tau) / (2 pi)), tau = t / t1, for
+    0 <= t <= t1, then q' = rate; q(0) = v0 (the smooth law of Kane, Ryan and Banerjee's
+    spinning-beam test: the acceleration rises from and returns to zero)."""
+
+    t1: float
+    slope: float
+    v0: float = 0.0
+    type_name: ClassVar[str] = "spin_up"
+
+    def __post_init__(self):
+        if not self.t1 > 0:
+            raise ConfigError(f"spin_up.t1: expected t1 > 0 s, got {self.t1}")
+
+    def value(self, t):
+        tt = np.asarray(t, dtype=float)
+        T, w = self.t1, self.slope
+        c = T / (2 * np.pi)
+        ramp = w / T * (0.5 * tt**2 + c**2 * (np.cos(tt / c) - 1.0))
+        return out(t, self.v0 + np.where(tt <= 0, 0.0, np.where(tt < T, ramp,
+                                                                 w * (tt - 0.5 * T))))
+
+    def rate(self, t):
+        tt = np.asarray(t, dtype=float)
+        T, w = self.t1, self.slope
+        ramp = w / T * (tt - T / (2 * np.pi) * np.sin(2 * np.pi * tt / T))
+        return out(t, np.where(tt <= 0, 0.0, np.where(tt < T, ramp, w)))
+
+    def accel(self, t):
+        tt = np.asarray(t, dtype=float)
+        T, w = self.t1, self.slope
+        inside = (tt > 0) & (tt < T)
+        return out(t, np.where(inside, w / T * (1.0 - np.cos(2 * np.pi * tt / T)), 0.0))
+
+    @classmethod
+    def from_dict(cls, d: dict, where: str, base_dir: Path | None = None) -> SpinUp:
+        check_keys(d, {"t1", "rate", "v0"}, where)
+        t1 = number(d, "t1", where)
+        if not t1 > 0:
+            raise ConfigError(f"{where}.t1: expected t1 > 0 s, got {t1}")
+        return cls(t1, number(d, "rate", where), number(d, "v0", where, 0.0))
+
+
 #: Driver classes keyed by the YAML ``type`` string.
 DRIVERS: dict[str, type[Driver]] = {
-    c.type_name: c for c in (Constant, Ramp, SmoothStep, Harmonic, Table, SumDriver)
+    c.type_name: c for c in (Constant, Ramp, SmoothStep, SpinUp, Harmonic, Table, SumDriver)
 }
 
 

@@ -31,6 +31,7 @@ SPECS = {
                         "shape": "cosine"},
     "harmonic": {"type": "harmonic", "amplitude": 0.2, "frequency": 1.3, "phase": 0.4,
                  "offset": 0.05},
+    "spin_up": {"type": "spin_up", "t1": 2.0, "rate": 1.5, "v0": 0.2},
     "table_linear": {"type": "table", "times": TT.tolist(), "values": TV.tolist()},
     "table_pchip": {"type": "table", "times": TT.tolist(), "values": TV.tolist(),
                     "interpolation": "pchip"},
@@ -47,7 +48,8 @@ T_SMOOTH = np.array([-0.7, 0.13, 0.31, 0.77, 1.21, 1.74, 2.43, 2.61, 3.4])
 
 
 def test_registry_covers_every_type():
-    assert set(DRIVERS) == {"constant", "ramp", "smooth_step", "harmonic", "table", "sum"}
+    assert set(DRIVERS) == {"constant", "ramp", "smooth_step", "spin_up", "harmonic", "table",
+                            "sum"}
     assert {s["type"] for s in SPECS.values()} == set(DRIVERS)
 
 
@@ -108,6 +110,22 @@ def test_smooth_step_closed_form(shape):
         assert abs(d.accel(0.2 + 1e-9)) < 1e-7 and abs(d.accel(2.2 - 1e-9)) < 1e-7
     else:  # C1 only: acceleration jumps to (v1 - v0) pi^2 / (2 T^2) at t0
         assert d.accel(0.2 + 1e-12) == pytest.approx(0.6 * np.pi**2 / 8, rel=1e-9)
+
+
+def test_spin_up_rate_integrates_to_its_value():
+    """The spin-up's value is the integral of its rate law (quadrature, independent of the
+    closed form), continuous into the constant-rate phase."""
+    from scipy.integrate import quad
+
+    d = driver_from_dict({"type": "spin_up", "t1": 15.0, "rate": 4.0}, "drivers.x")
+
+    def law(t):
+        return 4.0 * (t / 15 - np.sin(2 * np.pi * t / 15) / (2 * np.pi)) if t < 15 else 4.0
+
+    for t in (0.0, 3.0, 7.5, 14.99, 15.0, 22.0):
+        assert d.value(t) == pytest.approx(quad(law, 0.0, t, points=[15.0])[0], abs=1e-9)
+    assert d.rate(7.5) == pytest.approx(2.0) and d.rate(30.0) == 4.0
+    assert d.accel(0.0) == d.accel(15.0) == 0.0 and d.accel(7.5) == pytest.approx(8 / 15)
 
 
 def test_harmonic_closed_form():
