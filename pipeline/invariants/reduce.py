@@ -9,7 +9,7 @@ frame, where the modes are clamped.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -60,6 +60,7 @@ class LinkRequest:
     n_modes: int | None = None
     f_max: float | None = None
     craig_bampton: bool = False
+    geometric_stiffening: bool = False
 
 
 def reduce_link(request: LinkRequest, times: StageTimes | None = None,
@@ -99,10 +100,18 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
         motions = [(itf, *frame_motion(model, tied, basis, itf)) for itf in
                    _reference_first(interfaces, request.reference) + markers]
     ref = tied.interface(request.reference)
+    KG, stiffening = None, {}
+    if request.geometric_stiffening:
+        from pipeline.invariants.stiffening import centrifugal_stiffness
+
+        with stage(f"geometric stiffness of link '{name}'", times):
+            KG, summary = centrifugal_stiffness(model, tied, basis, ref.pose)
+        stiffening = {"geometric_stiffening": summary}
     info = {"n_dof": model.n_dof, "n_nodes": model.n_nodes, "units": "SI (m, kg, s, N, rad)",
             "stage_seconds": times.as_dict(), "mesh": _mesh_quality(mesh, moments, request),
-            **(meta or {})}
-    return _to_body_frame(name, model, mesh, basis, moments, motions, markers, ref, info)
+            **stiffening, **(meta or {})}
+    link = _to_body_frame(name, model, mesh, basis, moments, motions, markers, ref, info)
+    return link if KG is None else replace(link, geometric_stiffness=KG)
 
 
 def _assemble(request: LinkRequest, mesh: MeshData) -> FemModel:

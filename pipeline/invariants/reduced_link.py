@@ -63,6 +63,9 @@ class ReducedLink:
     surface : (t, q) boundary triangles into ``nodes`` (empty for beams).
     mode_shapes : (m, N, 3) nodal translations per unit modal coordinate, m.
     meta : provenance and settings (JSON-serialisable).
+    geometric_stiffness : (6, m, m) centrifugal geometric stiffness K_G,c per unit
+        product of body angular-velocity components (see
+        :mod:`pipeline.invariants.stiffening`), N m s^2; (0, m, m) when not computed.
     """
 
     name: str
@@ -81,8 +84,12 @@ class ReducedLink:
     surface: np.ndarray
     mode_shapes: np.ndarray
     meta: Mapping[str, Any] = field(default_factory=dict)
+    geometric_stiffness: np.ndarray | None = None
 
     def __post_init__(self) -> None:
+        if self.geometric_stiffness is None:
+            m = int(self.frequencies_hz.shape[0])
+            object.__setattr__(self, "geometric_stiffness", np.zeros((0, m, m)))
         object.__setattr__(self, "meta", MappingProxyType(dict(self.meta)))
         object.__setattr__(self, "mode_kinds", tuple(self.mode_kinds))
         object.__setattr__(self, "frames", tuple(self.frames))

@@ -42,6 +42,8 @@ def _digest(arrays: dict[str, np.ndarray], header: dict) -> str:
 
 def _to_arrays(link: ReducedLink) -> dict[str, np.ndarray]:
     arrays = {k: np.asarray(getattr(link, k)) for k in _ARRAYS}
+    if link.geometric_stiffness.size:
+        arrays["geometric_stiffness"] = np.asarray(link.geometric_stiffness)
     arrays["frame_pose"] = np.array([f.pose for f in link.frames]).reshape(-1, 4, 4)
     arrays["frame_phi"] = np.array([f.phi for f in link.frames]).reshape(
         len(link.frames), link.n_modes, 3)
@@ -89,4 +91,5 @@ def load_reduced_link(path: str | Path) -> ReducedLink:
     return ReducedLink(
         name=header["name"], kind=header["kind"], mode_kinds=tuple(header["mode_kinds"]),
         frames=frames, meta=header["meta"], **{k: arrays[k] for k in _ARRAYS},
+        geometric_stiffness=arrays.get("geometric_stiffness"),
     )

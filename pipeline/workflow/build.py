@@ -19,7 +19,7 @@ from pydantic import ValidationError
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.dynamics import BodyMass, System, body_from_reduced
 from pipeline.dynamics.bodies import in_plane_modes, project_on_plane
-from pipeline.dynamics.forces import FORCES
+from pipeline.dynamics.forces import FORCES, CentrifugalStiffening
 from pipeline.kinematics import Joint, build_mechanism, evaluate_tree, rigid_link
 from pipeline.kinematics.drivers import driver_from_dict
 from pipeline.kinematics.initial import initial_positions, initial_velocities
@@ -161,6 +161,9 @@ def _flex_frames(reduced, idx, plane, extra, where_frames) -> list[_View]:
 
 def _reduce(wf: Workflow, name: str, entry, cache_dir: Path, rebuild: bool):
     spec, base = _link_spec(wf, name, entry)
+    if getattr(entry, "geometric_stiffening", False):
+        spec = spec.model_copy(update={"modes": spec.modes.model_copy(
+            update={"geometric_stiffening": True})})
     request_files = link_request(spec, base)[1]
     digest = input_hash(spec, request_files)
     out = Path(cache_dir) / f"{spec.name}-{digest[:12]}"
@@ -321,6 +324,20 @@ def build_forces(wf: Workflow, mech, q0) -> list:
     return out
 
 
+def stiffening_elements(wf: Workflow, parts) -> list:
+    """A :class:`CentrifugalStiffening` element per flexible link with
+    ``geometric_stiffening: true`` and kept modes (named ``<link>:geometric_stiffening``)."""
+    out = []
+    for name, entry in wf.spec.links.items():
+        part = parts.get(name)
+        if not getattr(entry, "geometric_stiffening", False) or part is None or not part.modes:
+            continue
+        idx = list(part.modes)
+        KG = part.reduced.geometric_stiffness[:, idx][:, :, idx]
+        out.append(CentrifugalStiffening(f"{name}:geometric_stiffening", name, KG))
+    return out
+
+
 def initial_state(wf: Workflow, mech, drivers, init=None, path=("initial",)):
     """(q0, qd0) consistent with the loops and the drivers at t = 0: the joints' ``initial``
     values are the approximate assembly; the ``initial:`` coordinates and velocities
@@ -368,6 +385,6 @@ def build_machine(wf: Workflow, cache_dir: str | Path = "output/links",
         raise wf.error("joints", msg=str(exc)) from None
     drivers = build_drivers(wf, mech)
     q0, qd0 = initial_state(wf, mech, drivers)
-    forces = build_forces(wf, mech, q0)
+    forces = build_forces(wf, mech, q0) + stiffening_elements(wf, parts)
     system = System(mech, bodies, wf.spec.gravity, forces=forces, drivers=drivers)
     return Machine(wf, system, q0, qd0, parts)

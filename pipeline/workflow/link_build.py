@@ -87,6 +87,7 @@ def link_request(spec: LinkSpec, base_dir: Path) -> tuple[LinkRequest, tuple[Pat
                            for p in spec.point_masses),
         n_modes=spec.modes.count, f_max=spec.modes.f_max,
         craig_bampton=spec.modes.craig_bampton,
+        geometric_stiffening=spec.modes.geometric_stiffening,
     )
     return request, files
 

@@ -132,6 +132,9 @@ class ModesSpec(Strict):
     count: int | None = Field(None, ge=0, description="number of fixed-interface modes")
     f_max: float | None = Field(None, gt=0, description="keep modes up to this frequency, Hz")
     craig_bampton: bool = Field(False, description="add constraint modes of the other interfaces")
+    geometric_stiffening: bool = Field(
+        False, description="compute the centrifugal geometric stiffness of the modes (beam "
+                           "links), used when a workflow sets the link's geometric_stiffening")
 
     @model_validator(mode="after")
     def _one_rule(self):

@@ -149,6 +149,9 @@ class FlexibleLink(Strict):
     plane: Literal["xy", "yz", "xz"] | None = Field(
         None, description="keep only modes moving in this plane of the body frame")
     damping: DampingSpec | None = None
+    geometric_stiffening: bool = Field(
+        False, description="centrifugal geometric stiffening of the modes (beam links): "
+                           "computed with the reduction, applied in every analysis")
     frames: dict[Name, FrameSpec] = Field(
         default_factory=dict, description="extra frames, each fixed `on` a spec frame")
 

@@ -21,6 +21,17 @@ def test_round_trip_is_exact(tmp_path):
     np.testing.assert_array_equal(back.frame("f1").psi, link.frame("f1").psi)
     assert back.meta["settings"] == {"n_modes": 3}
     assert back.mode_kinds == link.mode_kinds
+    assert back.geometric_stiffness.shape == (0, 3, 3)  # not computed: none stored
+
+
+def test_geometric_stiffness_round_trips(tmp_path):
+    from dataclasses import replace
+
+    link = _random_link()
+    KG = np.random.default_rng(3).standard_normal((6, 3, 3))
+    back = load_reduced_link(save_reduced_link(replace(link, geometric_stiffness=KG),
+                                               tmp_path / "arm.npz"))
+    np.testing.assert_array_equal(back.geometric_stiffness, KG)
 
 
 def test_truncated_and_corrupted_files_are_rejected(tmp_path):

@@ -13,6 +13,7 @@ from pipeline.dynamics.forces.loads import (
                                             Torque,
 )
 from pipeline.dynamics.forces.springs import JointSpringDamper, SpringDamper, TableSpringDamper
+from pipeline.dynamics.forces.stiffening import CentrifugalStiffening
 
 #: Force element classes keyed by type name.
 FORCES: dict[str, type[ForceElement]] = {
@@ -27,6 +28,6 @@ FORCES: dict[str, type[ForceElement]] = {
     "force_cylinder": ForceCylinder,
 }
 
-__all__ = ["FORCES", "FollowerForce", "ForceCylinder", "ForceElement", "JointForce",
+__all__ = ["FORCES", "CentrifugalStiffening", "FollowerForce", "ForceCylinder", "ForceElement", "JointForce",
            "JointSpringDamper", "LineForce", "MarkerPoint", "PointForce", "SpringDamper",
            "TableSpringDamper", "Torque", "marker_point", "marker_pose"]

@@ -1,0 +1,146 @@
+"""Geometric (stress) stiffness of beam links and the load cases that prestress them.
+
+A member carrying an axial force N resists lateral deflection by
+``N int (u_x' du_x' + u_y' du_y' + u_z' du_z') dx`` -- the second-order part of the
+Green-Lagrange strain, ``eps = u_x' + (u_x'^2 + u_y'^2 + u_z'^2) / 2``, times the
+prestress. :func:`beam_geometric_stiffness` assembles that form for per-element axial
+forces (constant along an element, as the linear axial field of the element gives
+them; torsion-bending (Wagner) terms are left out).
+
+The prestress comes from load cases solved on the FE model: :func:`centrifugal_loads`
+gives the consistent nodal loads of the six unit centrifugal cases of a link spinning
+with angular velocity w about a point o -- the body-force field
+``rho (|w|^2 1 - w w^T)(r - o)``, linear in ``r`` and bilinear in w, so it is the sum of
+``w_i w_j`` times six unit fields (:data:`CENTRIFUGAL_CASES`). Units are SI.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from pipeline.core.errors import ConfigError
+from pipeline.fem.beam import (
+    _AXIAL,
+    _PLANE_XY,
+    _PLANE_XZ,
+    _XZ_SIGN,
+    SECTION_COLUMNS,
+    _add,
+    _scatter,
+    _to_link_frame,
+    _unit_matrices,
+    local_matrices,
+)
+from pipeline.fem.model import FemModel
+
+__all__ = ["CENTRIFUGAL_CASES", "beam_axial_forces", "beam_geometric_stiffness",
+           "centrifugal_fields", "centrifugal_loads", "centrifugal_products"]
+
+#: The six products of angular-velocity components the centrifugal field is linear in.
+CENTRIFUGAL_CASES = ("wx^2", "wy^2", "wz^2", "wx*wy", "wx*wz", "wy*wz")
+_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+
+
+def centrifugal_products(omega: np.ndarray) -> np.ndarray:
+    """(6,) the factors of :data:`CENTRIFUGAL_CASES` for an angular velocity (3,) rad/s.
+
+    Examples
+    --------
+    >>> centrifugal_products(np.array([1.0, 2.0, 3.0])).tolist()
+    [1.0, 4.0, 9.0, 2.0, 3.0, 6.0]
+    """
+    w = np.asarray(omega, dtype=float)
+    return np.array([w[i] * w[j] for i, j in _PAIRS])
+
+
+def centrifugal_fields(axes: np.ndarray | None = None) -> np.ndarray:
+    """(6, 3, 3) B_c with ``sum_c p_c(w) B_c = |w|^2 1 - w w^T`` (the centrifugal
+    acceleration per unit distance from the spin point), for w given in the axes whose
+    columns are ``axes`` (3, 3) (default: the model's own axes).
+
+    Examples
+    --------
+    >>> w = np.array([0.3, -1.0, 2.0])
+    >>> B = np.einsum("c,cij->ij", centrifugal_products(w), centrifugal_fields())
+    >>> bool(np.allclose(B, w @ w * np.eye(3) - np.outer(w, w)))
+    True
+    """
+    R = np.eye(3) if axes is None else np.asarray(axes, dtype=float)
+    e = np.eye(3)
+    out = np.empty((6, 3, 3))
+    for c, (i, j) in enumerate(_PAIRS):
+        B = np.eye(3) - np.outer(e[i], e[i]) if i == j else \
+            -(np.outer(e[i], e[j]) + np.outer(e[j], e[i]))
+        out[c] = R @ B @ R.T
+    return out
+
+
+def centrifugal_loads(model: FemModel, origin, axes=None) -> np.ndarray:
+    """(6, n_dof) consistent nodal loads of the unit centrifugal cases of a beam link,
+    N per (rad/s)^2: case c is the body force rho A B_c (r - origin) along the members.
+
+    Per element the field is linear in arc length, so its Hermite (transverse) and
+    linear (axial) interpolations are exact and the loads are the translational part of
+    the consistent mass times the field's nodal values and slopes. Point masses added
+    to the model are not loaded (their centrifugal force is not in these cases).
+
+    Parameters
+    ----------
+    model : beam FemModel (:func:`pipeline.fem.beam.assemble_beam`).
+    origin : (3,) the spin point, m, link frame (the body-frame origin).
+    axes : (3, 3) columns = the axes the angular velocity is given in (body axes).
+    """
+    _check_beam(model)
+    cells, frames = model.extras["cells"], model.extras["frames"]
+    lengths, props = model.extras["lengths"], model.extras["sections"].copy()
+    props[:, [SECTION_COLUMNS.index("Iy"), SECTION_COLUMNS.index("Iz")]] = 0.0
+    _, m_trans = local_matrices(lengths, props)  # rho A only: no section rotary inertia
+    d = model.nodes[cells] - np.asarray(origin, dtype=float)  # (k, 2, 3)
+    elem_dofs = model.node_dofs[cells].reshape(len(cells), 12)
+    out = np.zeros((6, model.n_dof))
+    for c, B in enumerate(centrifugal_fields(axes)):
+        a = np.einsum("kij,knj->kni", frames, d @ B.T)  # (k, 2, 3) field, element axes
+        slope = np.einsum("kij,jl,kl->ki", frames, B, frames[:, 0, :])  # d a_loc / ds
+        field = np.zeros((len(cells), 2, 6))
+        field[:, :, :3] = a
+        field[:, :, 4] = -slope[:, None, 2]  # theta_y = -d u_z / ds
+        field[:, :, 5] = slope[:, None, 1]  # theta_z = +d u_y / ds
+        f_loc = np.einsum("kab,kb->ka", m_trans, field.reshape(-1, 12))
+        f_link = np.einsum("kip,kai->kap", frames, f_loc.reshape(-1, 4, 3)).reshape(-1, 12)
+        np.add.at(out[c], elem_dofs, f_link)
+    return out
+
+
+def beam_axial_forces(model: FemModel, u: np.ndarray) -> np.ndarray:
+    """(k,) axial force of each element, N (tension positive), for nodal displacements
+    u (n_dof,) in the link frame: EA times the element's axial strain."""
+    _check_beam(model)
+    cells, frames = model.extras["cells"], model.extras["frames"]
+    EA = model.extras["sections"][:, SECTION_COLUMNS.index("E")] * \
+        model.extras["sections"][:, SECTION_COLUMNS.index("A")]
+    t = np.asarray(u, dtype=float)[model.node_dofs[cells][:, :, :3]]  # (k, 2, 3)
+    stretch = np.einsum("ki,ki->k", frames[:, 0, :], t[:, 1] - t[:, 0])
+    return EA * stretch / model.extras["lengths"]
+
+
+def beam_geometric_stiffness(model: FemModel, axial_force: np.ndarray) -> sp.csr_matrix:
+    """(n_dof, n_dof) geometric stiffness of a beam link whose elements carry the axial
+    forces ``axial_force`` (k,) N: ``N int (u_x' v_x' + u_y' v_y' + u_z' v_z') ds`` per
+    element (linear axial, Hermite transverse interpolation), N/m."""
+    _check_beam(model)
+    N = np.asarray(axial_force, dtype=float)
+    lengths, frames = model.extras["lengths"], model.extras["frames"]
+    p1_k, _, _, _, h_g = _unit_matrices(lengths)
+    K = np.zeros((len(lengths), 12, 12))
+    _add(K, _AXIAL, N[:, None, None] * p1_k)
+    _add(K, _PLANE_XY, N[:, None, None] * h_g)
+    _add(K, _PLANE_XZ, N[:, None, None] * h_g * np.outer(_XZ_SIGN, _XZ_SIGN))
+    elem_dofs = model.node_dofs[model.extras["cells"]].reshape(len(lengths), 12)
+    return _scatter(_to_link_frame(K, frames), elem_dofs, model.n_dof)
+
+
+def _check_beam(model: FemModel) -> None:
+    if model.kind != "beam":
+        raise ConfigError(f"link {model.name!r}: geometric stiffness is available for beam "
+                          f"links only (this one is a {model.kind})")
