@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pipeline.invariants.participation import DIRECTIONS
+
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("spec", type=Path, help="link spec YAML (see meshes/*.yaml)")
@@ -32,7 +34,8 @@ def run(args: argparse.Namespace) -> int:
             ("modes",) if isinstance(exc, ModalError) else ()
         raise type(exc)(locate(str(exc), spec, args.spec, lines, default)) from None
     summary = {**link.summary(), "artifact": str(args.out / f"{link.name}.npz"),
-               "cache": status, "mesh_quality": dict(link.meta.get("mesh", {}))}
+               "cache": status, "mesh_quality": dict(link.meta.get("mesh", {})),
+               "effective_mass_fraction": _effective_masses(link)}
     if args.render:
         from pipeline.post.render import render_modes
 
@@ -66,6 +69,27 @@ def _print_table(s: dict) -> None:
     if "render" in s:
         t.add_row("mode shapes", s["render"])
     con.print(t)
+    for frame, rows in s["effective_mass_fraction"].items():
+        e = Table(title=f"effective mass at interface '{frame}', % of the link's mass (t) "
+                        "and inertia about the interface (r)")
+        for col in ("mode", "Hz", *DIRECTIONS):
+            e.add_column(col, justify="right")
+        for k, (f, row) in enumerate(zip(s["frequencies_hz"], rows, strict=True)):
+            e.add_row(str(k), f"{f:.4g}", *(_pct(x) for x in row))
+        e.add_row("sum", "", *(_pct(x) for x in np.sum(rows, axis=0)), style="bold")
+        con.print(e)
+
+
+def _effective_masses(link) -> dict[str, list[list[float]]]:
+    """Per interface, each mode's effective-mass fraction in its six rigid directions."""
+    from pipeline.invariants.participation import effective_mass_fractions
+
+    return {f.name: effective_mass_fractions(link, f.name).round(6).tolist()
+            for f in link.frames if f.kind == "interface"}
+
+
+def _pct(x: float) -> str:
+    return f"{100 * x:.1f}" if x >= 5e-4 else "."
 
 
 def _vec(v) -> str:

@@ -20,6 +20,7 @@ from pipeline.fem.interfaces import Interface, InterfaceSpec, make_interface, re
 from pipeline.fem.model import FemModel
 from pipeline.fem.moments import MassMoments, mass_moments
 from pipeline.invariants.body_frame import congruent, inverse_pose, points_to_body, vectors_to_body
+from pipeline.invariants.participation import align_repeated
 from pipeline.invariants.reduced_link import FrameModes, ReducedLink
 from pipeline.meshing.geometry import BeamGeometry, SolidGeometry
 from pipeline.meshing.mesh_data import MeshData
@@ -111,7 +112,12 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
             "stage_seconds": times.as_dict(), "mesh": _mesh_quality(mesh, moments, request),
             **stiffening, **(meta or {})}
     link = _to_body_frame(name, model, mesh, basis, moments, motions, markers, ref, info)
-    return link if KG is None else replace(link, geometric_stiffness=KG)
+    if KG is not None:
+        link = replace(link, geometric_stiffness=KG)
+    # repeated frequencies (symmetric sections): modes along the body axes, not mixtures
+    from pipeline.modes.clamped import REPEATED_RTOL
+
+    return align_repeated(link, REPEATED_RTOL)
 
 
 def _assemble(request: LinkRequest, mesh: MeshData) -> FemModel:

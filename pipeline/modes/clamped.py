@@ -70,7 +70,7 @@ def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | No
             lam, X, kinds = craig_bampton_basis(K_c, M_c, boundary, n_modes, f_max,
                                            ordering=ordering, where=where)
         else:
-            lam, X = lowest_modes(K_c, M_c, n_modes, f_max, ordering=ordering, where=where)
+            lam, X = _complete_pairs(K_c, M_c, n_modes, f_max, ordering, where)
             kinds = ("normal",) * lam.size
         check_connected(tied, space, where)
         warn = _round_off_modes(lam, K_c, M_c, where, ref)
@@ -92,6 +92,27 @@ def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | No
                 *frequencies_from_eigenvalues(lam[[0, -1]]))
     return ModalBasis(frequencies_from_eigenvalues(lam), shapes, X_r,
                       _sym(X_r.T @ KX), _sym(X_r.T @ MX), kinds, ref, settings)
+
+
+#: relative gap below which two frequencies count as repeated (a symmetric section)
+REPEATED_RTOL = 1e-3
+
+
+def _complete_pairs(K_c, M_c, n_modes, f_max, ordering, where):
+    """The lowest modes by count and/or cut-off, one more when the count would split a
+    repeated frequency (Iy = Iz: the partner of the last mode would be missing, and the
+    last mode an arbitrary mix of the two planes)."""
+    n = K_c.shape[0]
+    if n_modes is None or n_modes + 1 > n:
+        return lowest_modes(K_c, M_c, n_modes, f_max, ordering=ordering, where=where)
+    lam, X = lowest_modes(K_c, M_c, n_modes + 1, f_max, ordering=ordering, where=where)
+    if lam.size == n_modes + 1:
+        w = np.sqrt(np.maximum(lam[-2:], 0.0))
+        if abs(w[1] - w[0]) <= REPEATED_RTOL * w[1]:
+            logger.info("%s: %d modes instead of %d: mode %d repeats the frequency of mode %d",
+                        where, n_modes + 1, n_modes, n_modes + 1, n_modes)
+            return lam, X
+    return lam[:n_modes], X[:, :n_modes]
 
 
 def check_connected(tied: TiedModel, space, where: str) -> None:

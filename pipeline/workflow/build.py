@@ -120,12 +120,16 @@ def _link_spec(wf: Workflow, name: str, entry) -> tuple[LinkSpec, Path]:
 
 
 def kept_modes(reduced, modes, plane: str | None, tol: float = 1e-2) -> tuple[int, ...]:
-    """Indices of the kept modes: a count (lowest n) or indices, optionally only those
-    whose frames move in ``plane`` (out-of-plane motion below ``tol`` x in-plane)."""
+    """Indices of the kept modes: a count (lowest n), indices, or a rule (an object with
+    ``f_max``, ``effective_mass``, ``directions``, ``interface``, ``count``, see
+    :class:`pipeline.workflow.schema.ModeSelection`), optionally only those whose frames
+    move in ``plane`` (out-of-plane motion below ``tol`` x in-plane)."""
     candidates = list(range(reduced.n_modes)) if plane is None else list(
         in_plane_modes(reduced, plane, tol))
     if modes is None:
         return tuple(candidates)
+    if not isinstance(modes, int | list | tuple):
+        return _selected(reduced, candidates, modes, plane)
     if isinstance(modes, int):
         if modes > len(candidates):
             raise ConfigError(f"modes: {modes} requested, {len(candidates)} available"
@@ -136,6 +140,44 @@ def kept_modes(reduced, modes, plane: str | None, tol: float = 1e-2) -> tuple[in
     if bad:
         raise ConfigError(f"modes: indices {bad} not available; available: {candidates}")
     return tuple(modes)
+
+
+def _selected(reduced, candidates: list[int], rule, plane) -> tuple[int, ...]:
+    """The modes of ``candidates`` a ModeSelection keeps (see :func:`kept_modes`)."""
+    from pipeline.invariants.participation import DIRECTIONS, effective_mass_fractions
+
+    f = np.asarray(reduced.frequencies_hz)
+    keep = [a for a in candidates if rule.f_max is None or f[a] <= rule.f_max]
+    if rule.effective_mass is not None:
+        try:
+            frac = effective_mass_fractions(reduced, rule.interface)
+        except KeyError as exc:
+            raise ConfigError(f"modes.interface: {exc.args[0]}") from None
+        target = rule.effective_mass
+        reach = frac[keep].sum(axis=0)
+        if rule.directions is None:
+            dirs = [k for k in range(6) if reach[k] >= target]
+            if not dirs:
+                raise ConfigError(f"modes.effective_mass: no direction reaches {target:g} with "
+                                  f"the {len(keep)} modes available (best "
+                                  f"{DIRECTIONS[int(np.argmax(reach))]}: {reach.max():.3f}); "
+                                  f"raise the spec's modes.count")
+        else:
+            dirs = [DIRECTIONS.index(d) for d in rule.directions]
+            short = [f"{DIRECTIONS[k]} {reach[k]:.3f}" for k in dirs if reach[k] < target]
+            if short:
+                raise ConfigError(f"modes.effective_mass: {target:g} not reached with the "
+                                  f"{len(keep)} modes available (" + ", ".join(short) +
+                                  "); raise the spec's modes.count or lower the fraction")
+        cum = np.cumsum(frac[keep][:, dirs], axis=0)
+        n = int(np.argmax(np.all(cum >= target - 1e-12, axis=1))) + 1
+        keep = keep[:n]
+    if rule.count is not None:
+        keep = keep[:rule.count]
+    if not keep:
+        raise ConfigError("modes: the rule keeps no mode" + (f" in plane {plane}" if plane
+                                                             else ""))
+    return tuple(keep)
 
 
 def _flex_frames(reduced, idx, plane, extra, where_frames) -> list[_View]:

@@ -134,6 +134,26 @@ class DampingSpec(Strict):
         return self
 
 
+class ModeSelection(Strict):
+    """Modes kept by rule, among the modes the spec computes (in the plane, if given):
+    those up to ``f_max``, then the lowest ones whose effective masses reach
+    ``effective_mass`` of the link's mass (translations) and inertia (rotations) in each
+    of ``directions`` at ``interface``; ``count`` caps the number."""
+
+    f_max: float | None = Field(None, gt=0, description="Hz")
+    effective_mass: float | None = Field(None, gt=0, le=1, description="fraction, e.g. 0.9")
+    directions: list[Literal["tx", "ty", "tz", "rx", "ry", "rz"]] | None = Field(
+        None, description="default: every direction the computed modes can reach")
+    interface: str | None = Field(None, description="default: the reference interface")
+    count: int | None = Field(None, ge=0, description="at most this many")
+
+    @model_validator(mode="after")
+    def _a_rule(self):
+        if self.f_max is None and self.effective_mass is None and self.count is None:
+            raise ValueError("give f_max, effective_mass or count")
+        return self
+
+
 class FlexibleLink(Strict):
     """Flexible link reduced from a link spec (gmsh + scikit-fem), modes clamped at its
     reference interface (the body frame)."""
@@ -143,8 +163,10 @@ class FlexibleLink(Strict):
     spec_overrides: dict[str, Any] = Field(
         default_factory=dict, description="dotted overrides of the link spec, e.g. "
                                           "{geometry.mesh_size: 0.02, modes.count: 4}")
-    modes: Annotated[int, Field(ge=0)] | list[Annotated[int, Field(ge=0)]] | None = Field(
-        None, description="kept modes: a count (the lowest n) or 0-based indices; "
+    modes: Annotated[int, Field(ge=0)] | list[Annotated[int, Field(ge=0)]] | ModeSelection \
+        | None = Field(
+        None, description="kept modes: a count (the lowest n), 0-based indices, or a rule "
+                          "{f_max, effective_mass, directions, interface, count}; "
                           "default all the spec computes; 0 makes the link rigid")
     plane: Literal["xy", "yz", "xz"] | None = Field(
         None, description="keep only modes moving in this plane of the body frame")
