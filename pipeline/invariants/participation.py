@@ -153,7 +153,7 @@ def transform_modes(link: ReducedLink, Q: np.ndarray, note: dict | None = None) 
     freq = np.sqrt(np.maximum(np.diag(K) / np.diag(M), 0.0)) / (2 * np.pi)
     frames = tuple(FrameModes(f.name, f.pose, Q.T @ f.phi, Q.T @ f.psi, f.kind)
                    for f in link.frames)
-    KG = link.geometric_stiffness
+    KG, S = link.geometric_stiffness, link.stress_modes
     meta = dict(link.meta)
     if note:
         meta["modal_basis"] = {**dict(meta.get("modal_basis", {})), **note}
@@ -162,4 +162,5 @@ def transform_modes(link: ReducedLink, Q: np.ndarray, note: dict | None = None) 
         Cpp=np.einsum("ba,dc,bdij->acij", Q, Q, link.Cpp, optimize=True),
         modal_stiffness=0.5 * (K + K.T), modal_mass=0.5 * (M + M.T), frequencies_hz=freq,
         frames=frames, mode_shapes=shapes, meta=meta,
-        geometric_stiffness=np.einsum("ba,cbd,de->cae", Q, KG, Q) if KG.size else KG)
+        geometric_stiffness=np.einsum("ba,cbd,de->cae", Q, KG, Q) if KG.size else KG,
+        stress_modes=np.einsum("ba,bnk->ank", Q, S).astype(np.float32) if S.size else S)

@@ -111,7 +111,17 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
     info = {"n_dof": model.n_dof, "n_nodes": model.n_nodes, "units": "SI (m, kg, s, N, rad)",
             "stage_seconds": times.as_dict(), "mesh": _mesh_quality(mesh, moments, request),
             **stiffening, **(meta or {})}
+    with stage(f"stress modes of link '{name}'", times):
+        from pipeline.fem.stress import stress_modes
+
+        S = _stress_to_body(model, ref.pose, stress_modes(model, basis.shapes))
+    info["stress"] = ({"kind": "resultants", "components": ["N", "Vy", "Vz", "T", "My", "Mz"],
+                       "units": "N, N m, element axes"} if model.kind == "beam" else
+                      {"kind": "voigt", "components": ["xx", "yy", "zz", "yz", "xz", "xy"],
+                       "units": "Pa, body axes", "recovery": "P2 element stress at its nodes, "
+                                                             "mean over the elements"})
     link = _to_body_frame(name, model, mesh, basis, moments, motions, markers, ref, info)
+    link = replace(link, stress_modes=S)
     if KG is not None:
         link = replace(link, geometric_stiffness=KG)
     # repeated frequencies (symmetric sections): modes along the body axes, not mixtures
@@ -175,6 +185,20 @@ def _mesh_quality(mesh: MeshData, moments: MassMoments, request: LinkRequest) ->
         "second_moment_rel_error": float(np.abs(C[:3, :3] - S_cad).max()
                                          / (m_cad * size**2)),
     }
+
+
+def _stress_to_body(model: FemModel, H: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """(m, N, 6) float32: solid stresses rotated to the body axes (R^T sigma R); beam
+    resultants stay in their element axes."""
+    if model.kind == "beam":
+        return S.astype(np.float32)
+    R = H[:3, :3]
+    i, j = np.array([0, 1, 2, 1, 0, 0]), np.array([0, 1, 2, 2, 2, 1])
+    T = np.zeros(S.shape[:2] + (3, 3))
+    T[..., i, j] = S
+    T[..., j, i] = S
+    B = np.einsum("ai,mnab,bj->mnij", R, T, R, optimize=True)
+    return B[..., i, j].astype(np.float32)
 
 
 def _to_body_frame(name, model, mesh, basis, moments, motions, markers, ref, info) -> ReducedLink:

@@ -24,6 +24,7 @@ FORMAT_VERSION = 2  # 2: the digest covers the header
 
 _ARRAYS = ("body_pose", "C", "Cp", "Cpp", "modal_stiffness", "modal_mass",
            "frequencies_hz", "nodes", "cells", "surface", "mode_shapes")
+_OPTIONAL = ("geometric_stiffness", "stress_modes")  # absent when not computed
 
 
 def _digest(arrays: dict[str, np.ndarray], header: dict) -> str:
@@ -42,8 +43,9 @@ def _digest(arrays: dict[str, np.ndarray], header: dict) -> str:
 
 def _to_arrays(link: ReducedLink) -> dict[str, np.ndarray]:
     arrays = {k: np.asarray(getattr(link, k)) for k in _ARRAYS}
-    if link.geometric_stiffness.size:
-        arrays["geometric_stiffness"] = np.asarray(link.geometric_stiffness)
+    for key in _OPTIONAL:
+        if getattr(link, key).size:
+            arrays[key] = np.asarray(getattr(link, key))
     arrays["frame_pose"] = np.array([f.pose for f in link.frames]).reshape(-1, 4, 4)
     arrays["frame_phi"] = np.array([f.phi for f in link.frames]).reshape(
         len(link.frames), link.n_modes, 3)
@@ -91,5 +93,5 @@ def load_reduced_link(path: str | Path) -> ReducedLink:
     return ReducedLink(
         name=header["name"], kind=header["kind"], mode_kinds=tuple(header["mode_kinds"]),
         frames=frames, meta=header["meta"], **{k: arrays[k] for k in _ARRAYS},
-        geometric_stiffness=arrays.get("geometric_stiffness"),
+        **{k: arrays.get(k) for k in _OPTIONAL},
     )

@@ -9,15 +9,18 @@ import numpy as np
 LENGTH = {"m": 1.0, "cm": 1e2, "mm": 1e3}
 FORCE = {"N": 1.0, "kN": 1e-3}
 ANGLE = {"rad": 1.0, "deg": 180.0 / np.pi}
+STRESS = {"Pa": 1.0, "kPa": 1e-3, "MPa": 1e-6}
 
 
 @dataclass(frozen=True)
 class DisplayUnits:
-    """Units plots are drawn in: length (m, cm, mm), force (N, kN), angle (rad, deg)."""
+    """Units plots are drawn in: length (m, cm, mm), force (N, kN), angle (rad, deg),
+    stress (Pa, kPa, MPa; MPa by default, as engineers read it)."""
 
     length: str = "m"
     force: str = "N"
     angle: str = "rad"
+    stress: str = "MPa"
 
 
 def to_display(values, unit: str, units: DisplayUnits) -> tuple[np.ndarray, str]:
@@ -32,6 +35,8 @@ def to_display(values, unit: str, units: DisplayUnits) -> tuple[np.ndarray, str]
     (array([2.5]), 'kN m')
     >>> to_display([0.01], "m/s", DisplayUnits(length="mm"))
     (array([10.]), 'mm/s')
+    >>> to_display([2.5e7], "Pa", DisplayUnits())
+    (array([25.]), 'MPa')
     """
     v = np.asarray(values, dtype=float)
     head, slash, tail = unit.partition("/")
@@ -41,6 +46,8 @@ def to_display(values, unit: str, units: DisplayUnits) -> tuple[np.ndarray, str]
         return v * ANGLE[units.angle], units.angle + slash + tail
     if head == "N":
         return v * FORCE[units.force], units.force + slash + tail
+    if head == "Pa":
+        return v * STRESS[units.stress], units.stress + slash + tail
     if head == "N m":  # moments in force x length units
         return (v * FORCE[units.force] * LENGTH[units.length],
                 f"{units.force} {units.length}" + slash + tail)

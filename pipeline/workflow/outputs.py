@@ -129,10 +129,10 @@ def _plot(folder: Path, wf, machines, results, idx: int, p, skipped) -> str | No
     for s in p.series:
         curves, unit, label = [], "", s
         for r in rs:
-            mech = machines[r.case].mechanism
+            mech, parts = machines[r.case].mechanism, machines[r.case].parts
             try:
-                y = series(r, mech, s)
-                x = series(r, mech, p.x) if s != "frequency" else None
+                y = series(r, mech, s, parts)
+                x = series(r, mech, p.x, parts) if s != "frequency" else None
             except ConfigError as exc:
                 raise wf.error("outputs", "plots", idx, msg=str(exc)) from None
             yv, unit = to_display(y.values, y.unit, units)

@@ -110,7 +110,7 @@ def check_outputs(wf: Workflow, m: Machine) -> None:
     for i, p in enumerate(wf.spec.outputs.plots):
         for s in ([p.x] if p.x != "time" else []) + list(p.series):
             try:
-                check_series(s, m.mechanism, types[p.analysis])
+                check_series(s, m.mechanism, types[p.analysis], m.parts)
             except ConfigError as exc:
                 raise wf.error("outputs", "plots", i, msg=str(exc)) from None
     for i, c in enumerate(wf.spec.outputs.convergence):
@@ -124,7 +124,7 @@ def check_outputs(wf: Workflow, m: Machine) -> None:
                            msg=f"expected one of the cases {labels}, got {c.reference!r}")
         for s in c.series:
             try:
-                check_series(s, m.mechanism, a.type)
+                check_series(s, m.mechanism, a.type, m.parts)
             except ConfigError as exc:
                 raise wf.error("outputs", "convergence", i, msg=str(exc)) from None
 

@@ -13,7 +13,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
-from pipeline.post.units import ANGLE, FORCE, LENGTH
+from pipeline.post.units import ANGLE, FORCE, LENGTH, STRESS
 from pipeline.workflow.link_spec import LinkSpec, Mat3, Strict, Vec3
 
 Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*$")]
@@ -357,6 +357,7 @@ class UnitsSpec(Strict):
     length: Literal[tuple(LENGTH)] = "m"
     force: Literal[tuple(FORCE)] = "N"
     angle: Literal[tuple(ANGLE)] = "rad"
+    stress: Literal[tuple(STRESS)] = "MPa"
 
 
 class PlotSpec(Strict):

@@ -16,6 +16,10 @@ driver_force:LCYL.d      force a driver/held coordinate applies          N, N m
 reaction:J1:fy           joint reaction on the child link at the joint   N, N m
                          point, ground axes (fx fy fz mx my mz, force,
                          moment: norms; kinetostatic with reactions)
+stress:link.frame:von_mises  stress at the link node nearest the frame     Pa
+                         (solids: von_mises, s1, s2, s3 principal, xx
+                         yy zz yz xz xy body axes; beams: section
+                         resultants N Vy Vz T My Mz, element axes)       N, N m
 frequency                linearised natural frequencies (x: mode no.)    Hz
 =======================  ==============================================  ==========
 """
@@ -31,7 +35,9 @@ from pipeline.kinematics import evaluate_tree
 from pipeline.kinematics.poses import step_local
 
 KINDS = ("time", "q", "qd", "qdd", "marker", "deflection", "energy", "driver_force",
-         "reaction", "frequency")
+         "reaction", "stress", "frequency")
+SOLID_STRESS = ("von_mises", "s1", "s2", "s3", "xx", "yy", "zz", "yz", "xz", "xy")
+BEAM_STRESS = ("N", "Vy", "Vz", "T", "My", "Mz")
 REACTION_COMPONENTS = ("fx", "fy", "fz", "mx", "my", "mz", "force", "moment")
 _COMPONENT = {"x": 0, "y": 1, "z": 2}
 
@@ -96,8 +102,9 @@ def _marker_parts(spec: str, rest: str, mech) -> tuple[str, str, str | None]:
     return target, comp, axes or None
 
 
-def series(result, mech, spec: str) -> Series:
-    """Values (T,) of ``spec`` in ``result`` (an AnalysisResult of ``mech``).
+def series(result, mech, spec: str, parts=None) -> Series:
+    """Values (T,) of ``spec`` in ``result`` (an AnalysisResult of ``mech``); ``parts``
+    (the machine's reduced links, ``Machine.parts``) for stress series.
 
     Raises
     ------
@@ -145,10 +152,63 @@ def series(result, mech, spec: str) -> Series:
         return Series(np.asarray(result.forces[rest]), f"{rest} actuator force", unit)
     if kind == "reaction":
         return reaction_series(result, spec)
+    if kind == "stress":
+        return stress_series(result, mech, parts or {}, spec)
     f = result.extra.get("frequencies_hz")
     if f is None:
         raise ConfigError(f"series {spec!r}: only linearised analyses have frequencies")
     return Series(np.asarray(f), "natural frequency", "Hz")
+
+
+def stress_series(result, mech, parts, spec: str) -> Series:
+    """``stress:LINK.FRAME:QUANTITY``: the stress (or beam section resultant) at the FE node
+    of the link nearest the frame's origin, from its stress modes and modal coordinates."""
+    from pipeline.fem.stress import principal_stresses, von_mises
+
+    link, frame, comp, node = _stress_target(spec, mech, parts)
+    part = parts[link]
+    if not part.modes:  # a case that keeps no mode: the link is rigid, its stress unknown
+        return Series(np.full(len(result.t), np.nan), f"{link}.{frame} {comp} (rigid case)",
+                      "Pa" if part.reduced.kind != "beam" else "N")
+    S = np.asarray(part.reduced.stress_modes, dtype=float)[list(part.modes), node]  # (k, 6)
+    eta = result.q[:, mech.modal_index[mech.link_index(link)]]
+    s = eta @ S  # (T, 6)
+    if part.reduced.kind == "beam":
+        v = s[:, BEAM_STRESS.index(comp)]
+        return Series(v, f"{link}.{frame} {comp}", "N m" if comp[0] in "TM" else "N")
+    if comp == "von_mises":
+        v = von_mises(s)
+    elif comp in ("s1", "s2", "s3"):
+        v = principal_stresses(s)[:, int(comp[1]) - 1]
+    else:
+        v = s[:, SOLID_STRESS.index(comp) - 4]
+    return Series(v, f"{link}.{frame} {comp.replace('_', ' ')} stress", "Pa")
+
+
+def _stress_target(spec: str, mech, parts) -> tuple[str, str, str, int]:
+    _, _, rest = spec.partition(":")
+    target, _, comp = rest.rpartition(":")
+    link, _, frame = target.partition(".")
+    part = parts.get(link)
+    if link not in mech.link_names or part is None:
+        flex = sorted(parts)
+        raise ConfigError(f"series {spec!r}: expected stress:<link>.<frame>:<quantity> with a "
+                          f"flexible link of {flex}")
+    names = [f.name for f in mech.links[mech.link_index(link)].frames]
+    if frame not in names:
+        raise ConfigError(f"series {spec!r}: frame {frame!r} is not on link {link!r} "
+                          f"(frames: {names})")
+    red = part.reduced
+    if not red.stress_modes.size:
+        raise ConfigError(f"series {spec!r}: link {link!r} has no stress modes (reduce it "
+                          "again with this version)")
+    allowed = BEAM_STRESS if red.kind == "beam" else SOLID_STRESS
+    if comp not in allowed:
+        raise ConfigError(f"series {spec!r}: quantity {comp!r}: expected one of "
+                          f"{list(allowed)} for a {red.kind} link")
+    origin = mech.links[mech.link_index(link)].frame(frame).pose[:3, 3]
+    node = int(np.argmin(np.linalg.norm(np.asarray(red.nodes) - origin, axis=1)))
+    return link, frame, comp, node
 
 
 def reaction_series(result, spec: str) -> Series:
@@ -173,7 +233,7 @@ def reaction_series(result, spec: str) -> Series:
     return Series(v, f"{joint} reaction {comp}", "N" if comp[0] == "f" else "N m")
 
 
-def check_series(spec: str, mech, analysis_type: str) -> None:
+def check_series(spec: str, mech, analysis_type: str, parts=None) -> None:
     """Fail early (before any analysis runs) on a series that cannot exist.
 
     Raises
@@ -195,6 +255,11 @@ def check_series(spec: str, mech, analysis_type: str) -> None:
                 f.name for f in mech.links[mech.link_index(link)].frames]:
             raise ConfigError(f"series {spec!r}: expected an existing link.frame, got "
                               f"{target!r}")
+    if kind == "stress":
+        _stress_target(spec, mech, parts or {})
+        if analysis_type == "linearised":
+            raise ConfigError(f"series {spec!r}: linearised analyses have mode shapes, not "
+                              "stress histories")
     if kind == "energy" and analysis_type != "dynamic":
         raise ConfigError(f"series {spec!r}: only dynamic analyses have energies")
     if kind == "frequency" and analysis_type != "linearised":

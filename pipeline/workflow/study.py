@@ -30,12 +30,12 @@ def convergence(results, machines, names, reference: str | None = None) -> Conve
     ref = results[-1] if reference is None else next(r for r in results if r.case == reference)
     rms, peak, rel, units = {}, {}, {}, {}
     for s in names:
-        y_ref = series(ref, machines[ref.case].mechanism, s)
+        y_ref = series(ref, machines[ref.case].mechanism, s, machines[ref.case].parts)
         units[s] = y_ref.unit
         scale = float(np.sqrt(np.mean(y_ref.values ** 2)))
         rms[s], peak[s], rel[s] = [], [], []
         for r in results:
-            y = series(r, machines[r.case].mechanism, s).values
+            y = series(r, machines[r.case].mechanism, s, machines[r.case].parts).values
             k = min(len(y), len(y_ref.values))
             d = y[:k] - y_ref.values[:k]
             rms[s].append(float(np.sqrt(np.mean(d ** 2))) if k else np.nan)

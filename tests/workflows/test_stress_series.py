@@ -1,0 +1,82 @@
+"""Stress histories through a workflow: a cantilever beam link with a tip load, reduced
+with the tip's Craig-Bampton constraint modes (which span the static response exactly):
+the static section moment is F (L - x) at the root, mid-span and tip markers, and the
+series is written in the plot units (kN m here, MPa for solid stresses)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipeline.core.errors import ConfigError
+from pipeline.workflow import build_machine, load_workflow
+from pipeline.workflow.analyses import run_analysis
+from pipeline.workflow.series import check_series, series
+
+pytestmark = pytest.mark.gmsh
+
+L, F = 2.0, 1500.0
+
+BAR = f"""\
+name: cantilever
+geometry: {{type: beam, points: [[0, 0, 0], [{L}, 0, 0]], vertex_names: [root, tip],
+           element_size: 0.1}}
+material: {{E: 2.1e11, nu: 0.3, rho: 7850}}
+sections:
+  - {{A: 1.0e-3, Iy: 4.0e-7, Iz: 1.0e-7, J: 4.0e-7, members: [0]}}
+interfaces:
+  - {{name: root, selector: {{type: nearest, point: [0, 0, 0]}}}}
+  - {{name: tip, selector: {{type: nearest, point: [{L}, 0, 0]}}}}
+reference: root
+markers:
+  - {{name: mid, position: [{L / 2}, 0, 0]}}
+modes: {{count: 4, craig_bampton: true}}
+"""
+
+WORKFLOW = f"""\
+name: loaded
+gravity: [0, 0, 0]
+links:
+  ground: {{type: ground, frames: {{O: {{origin: [0, 0, 0]}}}}}}
+  bar: {{type: flexible, spec: bar.yaml}}
+joints:
+  - {{name: J, type: fixed, parent: ground.O, child: bar.root}}
+forces:
+  - {{name: load, type: point_force, marker: bar.tip, force: [0, -{F}, 0]}}
+analyses:
+  - name: sag
+    type: static
+"""
+
+
+@pytest.fixture(scope="module")
+def loaded(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("stress")
+    (folder / "bar.yaml").write_text(BAR)
+    (folder / "loaded.yaml").write_text(WORKFLOW)
+    m = build_machine(load_workflow(folder / "loaded.yaml"), folder / "links")
+    return m, run_analysis(m, "sag")
+
+
+@pytest.mark.parametrize(("frame", "x"), [("root", 0.0), ("mid", L / 2), ("tip", L)])
+def test_section_moment_is_f_times_arm(loaded, frame, x):
+    m, r = loaded
+    assert r.success
+    mz = series(r, m.mechanism, f"stress:bar.{frame}:Mz", m.parts)
+    assert mz.unit == "N m"
+    assert mz.values[0] == pytest.approx(-F * (L - x), abs=1e-6 * F * L)
+    vy = series(r, m.mechanism, f"stress:bar.{frame}:Vy", m.parts)
+    assert vy.values[0] == pytest.approx(F, rel=1e-6)  # dMz/ds
+    n = series(r, m.mechanism, f"stress:bar.{frame}:N", m.parts)
+    assert abs(n.values[0]) < 1e-6 * F
+
+
+def test_stress_series_errors_name_what_exists(loaded):
+    m, _ = loaded
+    with pytest.raises(ConfigError, match=r"quantity 'von_mises'.*\['N', 'Vy'"):
+        check_series("stress:bar.root:von_mises", m.mechanism, "static", m.parts)
+    with pytest.raises(ConfigError, match=r"frame 'elbow' is not on link 'bar'"):
+        check_series("stress:bar.elbow:Mz", m.mechanism, "static", m.parts)
+    with pytest.raises(ConfigError, match=r"flexible link of \['bar'\]"):
+        check_series("stress:ground.O:Mz", m.mechanism, "static", m.parts)
+    assert np.isfinite(series(loaded[1], m.mechanism, "stress:bar.tip:Mz", m.parts).values).all()
