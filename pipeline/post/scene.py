@@ -68,11 +68,14 @@ class Style:
     up : (3,) unit vector against gravity, ground axes; draws a ground line (2-D views)
         or plane (3-D) below the machine. None: no ground.
     font_px : label height, pixels.
+    color : what flexible links are coloured by: "displacement" (elastic, mm) or
+        "von_mises" (stress, MPa; links with stress modes, the others grey).
     """
 
     line_px: float = 6.0
     up: tuple | None = None
     font_px: int = 16
+    color: str = "displacement"
 
 
 def _polydata(pv, points, triangles=None, lines=None):
@@ -91,6 +94,16 @@ def _placed(X, fields, A, eta, scale):
 
 
 _SCALARS = "elastic displacement, mm"
+_LABELS = {"displacement": _SCALARS, "von_mises": "von Mises stress, MPa"}
+
+
+def _scalar(shape, X, fields, eta, d, color):
+    """Colour values of points X of ``shape``: elastic displacement (mm) or von Mises
+    (MPa, on the shape's own points only: a centre line has no stress)."""
+    if color == "von_mises":
+        v = shape.von_mises(eta) if X is shape.points else None
+        return None if v is None else 1e-6 * v
+    return 1e3 * d
 
 
 class _Drawn:
@@ -99,7 +112,7 @@ class _Drawn:
 
     def __init__(self, plotter, pv, mech, shapes, q, scale, clim, style, opacity=1.0,
                  ghost=False):
-        self.mech, self.scale, self.ghost = mech, scale, ghost
+        self.mech, self.scale, self.ghost, self.color = mech, scale, ghost, style.color
         self.meshes = []
         poses = link_poses(mech, q)
         lw = style.line_px
@@ -115,12 +128,14 @@ class _Drawn:
             for X, fields, mesh in parts:
                 self.meshes.append((shape, X, fields, mesh))
                 is_line = mesh.n_lines > 0
+                coloured = flexible and (style.color != "von_mises" or (
+                    shape.stress is not None and X is shape.points))
                 kw = {"line_width": lw, "render_lines_as_tubes": True} if is_line else {}
                 if ghost:
                     plotter.add_mesh(mesh, style="wireframe" if not is_line else "surface",
                                      color="darkgrey", opacity=0.5,
                                      line_width=max(1.0, lw / 3) if is_line else 1.0)
-                elif flexible:
+                elif coloured:
                     mesh.point_data[_SCALARS] = np.zeros(mesh.n_points)
                     plotter.add_mesh(mesh, scalars=_SCALARS, cmap="viridis", clim=clim,
                                      opacity=opacity, show_scalar_bar=False, **kw)
@@ -135,10 +150,11 @@ class _Drawn:
         scale = 0.0 if self.ghost else self.scale
         for shape, X, fields, mesh in self.meshes:
             li = self.mech.link_index(shape.link)
-            P, d = _placed(X, fields, poses[li], q[self.mech.modal_index[li]], scale)
+            eta = q[self.mech.modal_index[li]]
+            P, d = _placed(X, fields, poses[li], eta, scale)
             mesh.points = P
             if _SCALARS in mesh.point_data:
-                mesh.point_data[_SCALARS] = 1e3 * d
+                mesh.point_data[_SCALARS] = _scalar(shape, X, fields, eta, d, self.color)
 
 
 class _Pivots:
@@ -183,18 +199,22 @@ def label_anchors(mech, shapes, Q, scale, sample: int = 400) -> np.ndarray:
     return np.array(out)
 
 
-def _clim(mech, shapes, Q, scale):
+def _clim(mech, shapes, Q, scale, color="displacement"):
     top = 0.0
     for q in Q:
         poses = link_poses(mech, q)
         for s in shapes.values():
-            top = max(top, float(posed_points(mech, s, q, 1.0, poses)[1].max(initial=0.0)))
-    return [0.0, max(1e3 * top, 1e-9)]
+            eta = np.asarray(q, float)[mech.modal_index[mech.link_index(s.link)]]
+            v = _scalar(s, s.points, s.modes, eta, posed_points(mech, s, q, 1.0, poses)[1],
+                        color)
+            if v is not None:
+                top = max(top, float(np.max(v, initial=0.0)))
+    return [0.0, max(top, 1e-9)]
 
 
-def _bar(plotter, scale, clim):
+def _bar(plotter, scale, clim, color="displacement"):
     if clim[1] > 1e-9:
-        title = f"{_SCALARS} (drawn x{scale:g})"
+        title = f"{_LABELS[color]} (deformation drawn x{scale:g})"
         mesh = _pyvista().PolyData(np.zeros((1, 3)))
         mesh.point_data[title] = [0.0]
         plotter.add_mesh(mesh, scalars=title, cmap="viridis", clim=clim, point_size=0.0,
@@ -406,7 +426,7 @@ def render_positions(path, mech, shapes, Q, labels=None, *, scale: float = 1.0,
     pv = _pyvista()
     style = style or Style()
     Q = [np.asarray(q, dtype=float) for q in Q]
-    clim = _clim(mech, shapes, Q, scale)
+    clim = _clim(mech, shapes, Q, scale, style.color)
     plotter = pv.Plotter(off_screen=True, window_size=window_size)
     try:
         plotter.set_background("white")
@@ -418,7 +438,7 @@ def render_positions(path, mech, shapes, Q, labels=None, *, scale: float = 1.0,
             _Pivots(plotter, pv, mech, q, style)
         bounds = scene_bounds(mech, shapes, Q, scale)
         extra = _furniture(plotter, pv, bounds, camera, style)
-        _bar(plotter, scale, clim)
+        _bar(plotter, scale, clim, style.color)
         if title:
             plotter.add_text(title, font_size=11, color="black")
         _camera(plotter, camera)
@@ -449,7 +469,7 @@ def animate_machine(path, mech, shapes, t, Q, *, scale: float = 1.0, fps: int = 
     if len(t) == 0:
         raise ConfigError(f"{path.name}: nothing to animate (no output times)")
     picks = np.unique(np.linspace(0, len(t) - 1, min(max_frames, len(t))).round().astype(int))
-    clim = _clim(mech, shapes, Q[picks], scale)
+    clim = _clim(mech, shapes, Q[picks], scale, style.color)
     bounds = scene_bounds(mech, shapes, Q[picks[:: max(1, len(picks) // 12)]], scale)
     frames = []
     plotter = pv.Plotter(off_screen=True, window_size=window_size)
@@ -458,7 +478,7 @@ def animate_machine(path, mech, shapes, t, Q, *, scale: float = 1.0, fps: int = 
         drawn = _Drawn(plotter, pv, mech, shapes, Q[picks[0]], scale, clim, style)
         pivots = _Pivots(plotter, pv, mech, Q[picks[0]], style)
         extra = _furniture(plotter, pv, bounds, camera, style)
-        _bar(plotter, scale, clim)
+        _bar(plotter, scale, clim, style.color)
         clock = _text_actor(plotter.renderer, "t = 0 s", style.font_px, box=False)
         clock.SetPosition(10, window_size[1] - 2.2 * style.font_px)
         _camera(plotter, camera)

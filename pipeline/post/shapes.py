@@ -22,6 +22,8 @@ class LinkShape:
     triangles : (F, 3) point indices, or None.  lines : (L, 2) point indices, or None.
     modes : (k, N, 3) displacement per unit modal coordinate (body frame, m), in the
         order of the link's modal coordinates in the mechanism; None for a rigid link.
+    stress : (k, N, 6) Voigt stress per unit modal coordinate (body axes, Pa), or None
+        (rigid links, beams).
     """
 
     link: str
@@ -29,6 +31,16 @@ class LinkShape:
     triangles: np.ndarray | None = None
     lines: np.ndarray | None = None
     modes: np.ndarray | None = None
+    stress: np.ndarray | None = None
+
+    def von_mises(self, eta: np.ndarray) -> np.ndarray | None:
+        """(N,) von Mises stress (Pa) at the points for modal coordinates eta (k,), or None
+        without stress modes."""
+        if self.stress is None or not np.size(eta):
+            return None
+        from pipeline.fem.stress import von_mises
+
+        return von_mises(np.tensordot(np.asarray(eta, float), self.stress, axes=(0, 0)))
 
     @cached_property
     def spine(self) -> tuple[np.ndarray, np.ndarray | None] | None:
@@ -60,8 +72,11 @@ def shape_from_reduced(reduced, modes=None, link: str | None = None) -> LinkShap
         # a solid's interior and mid-side nodes would be most of every frame's points
         used, tri = np.unique(surface[:, :3].astype(int), return_inverse=True)
         tri = tri.reshape(-1, 3)
+        S = np.asarray(reduced.stress_modes)
+        stress = S[idx][:, used].astype(float) if idx and S.size and \
+            reduced.kind == "solid" else None
         return LinkShape(link or reduced.name, np.asarray(reduced.nodes, float)[used], tri,
-                         None, None if fields is None else fields[:, used])
+                         None, None if fields is None else fields[:, used], stress)
     lines = np.asarray(reduced.cells)[:, :2].astype(int)
     return LinkShape(link or reduced.name, np.asarray(reduced.nodes, float), None, lines, fields)
 

@@ -16,14 +16,20 @@ logger = logging.getLogger(__name__)
 
 
 def machine_grid(mech, shapes, q, scale: float = 1.0):
-    """(points (N, 3), cells [(type, array)], point data, cell data) of all links at q."""
+    """(points (N, 3), cells [(type, array)], point data, cell data) of all links at q.
+
+    Point data: elastic ``displacement`` (ground axes, m) and its magnitude, and
+    ``von_mises`` (Pa, NaN on links without stress modes) when a link has stress modes."""
     pts, tri, lines, disp, tri_id, line_id, n0 = [], [], [], [], [], [], 0
+    vm = []
     poses = link_poses(mech, q)
     for i, (name, s) in enumerate(shapes.items()):
         P, _ = posed_points(mech, s, q, scale, poses)
         P0, _ = posed_points(mech, s, q, 0.0, poses)
         pts.append(P)
         disp.append((P - P0) / scale if scale else np.zeros_like(P))
+        v = s.von_mises(np.asarray(q, float)[mech.modal_index[mech.link_index(s.link)]])
+        vm.append(np.full(len(P), np.nan) if v is None else v)
         if s.triangles is not None:
             tri.append(s.triangles + n0)
             tri_id.append(np.full(len(s.triangles), i))
@@ -39,9 +45,10 @@ def machine_grid(mech, shapes, q, scale: float = 1.0):
         cells.append(("line", np.vstack(lines)))
         ids.append(np.concatenate(line_id))
     d = np.vstack(disp)
-    return (np.vstack(pts), cells, {"displacement": d,
-                                    "displacement_magnitude": np.linalg.norm(d, axis=1)},
-            {"link_id": ids})
+    data = {"displacement": d, "displacement_magnitude": np.linalg.norm(d, axis=1)}
+    if any(s.stress is not None for s in shapes.values()):
+        data["von_mises"] = np.concatenate(vm)  # Pa; NaN on links without stress modes
+    return np.vstack(pts), cells, data, {"link_id": ids}
 
 
 def _evenly(n: int, most: int) -> np.ndarray:

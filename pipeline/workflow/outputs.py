@@ -240,7 +240,7 @@ def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
         render_positions(path, m.mechanism, shapes, Q, [r.case for r in rs], scale=scale,
                          camera=rs_spec.camera, title=rs_spec.title or f"{wf.name}: {rs[0].name}",
                          ghost_q=[rigid_configuration(m.mechanism, q) for q in Q],
-                         style=picture_style(wf))
+                         style=picture_style(wf, color=rs_spec.color))
         return path.name
     r = _pick(rs, rs_spec.case, wf, "outputs", "renders", idx, "case")
     if not has_data(r):
@@ -261,11 +261,11 @@ def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
     if len(Q) == 1:
         when = "" if r.type in ("static", "linearised") else f", t = {r.t[ks[0]]:.3g} s"
         render_machine(path, m.mechanism, shapes, Q[0], scale=scale, camera=rs_spec.camera,
-                       title=f"{title}{when}", ghost_q=ghosts[0], style=picture_style(wf))
+                       title=f"{title}{when}", ghost_q=ghosts[0], style=picture_style(wf, color=rs_spec.color))
     else:
         render_positions(path, m.mechanism, shapes, Q, [f"t = {r.t[k]:.3g} s" for k in ks],
                          scale=scale, camera=rs_spec.camera, title=title,
-                         ghost_q=None if ghosts[0] is None else ghosts, style=picture_style(wf))
+                         ghost_q=None if ghosts[0] is None else ghosts, style=picture_style(wf, color=rs_spec.color))
     return path.name
 
 
@@ -282,7 +282,7 @@ def _animate(folder, wf, machines, results, idx, an, skipped) -> str | None:
     path = folder / f"{an.name}.{an.format}"
     animate_machine(path, m.mechanism, shapes, r.t, r.q, scale=scale, fps=an.fps,
                     max_frames=an.max_frames, camera=an.camera,
-                    style=picture_style(wf, line_px=4.0))
+                    style=picture_style(wf, line_px=4.0, color=an.color))
     return path.name
 
 

@@ -381,6 +381,9 @@ class RenderSpec(Strict):
                                                      "the last (timed) or every case (static)")
     case: str | None = Field(None, description="case label (default the first)")
     title: str | None = None
+    color: Literal["displacement", "von_mises"] = Field(
+        "displacement", description="colour flexible links by elastic displacement (mm) or "
+                                    "von Mises stress (MPa, solid links)")
 
 
 class AnimationSpec(Strict):
@@ -392,6 +395,7 @@ class AnimationSpec(Strict):
     case: str | None = None
     fps: int = Field(15, ge=1, le=60)
     max_frames: int = Field(60, ge=2, le=600)
+    color: Literal["displacement", "von_mises"] = "displacement"
 
 
 class ConvergenceSpec(Strict):

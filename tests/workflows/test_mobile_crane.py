@@ -181,3 +181,23 @@ def test_release_conserves_energy(run):
     # total includes the work of the swing driver; the balance closes to integration error
     assert np.abs(e - e[0]).max() < 1e-6 * ke
     assert r.extra["closure_residual"].max() < 1e-10
+
+
+def test_boom_root_moment_against_beam_statics(run):
+    """The luff-plane root moment of the boom from its stress modes against statics of the
+    boom's own weight, M = |g_perp| sum_i rho A_i 8 m x_i (x_i = 4, 12, 20 m), with g_perp
+    the gravity normal to the boom at its deformed-equilibrium elevation (the chassis
+    pitches about 1.3 deg on its outriggers). A truncated modal model recovers a moment
+    from below: 3 in-plane modes within 3 % (measured 2.3 %)."""
+    from pipeline.kinematics import evaluate_tree
+
+    for r in run.results["deflection"]:
+        m = run.machines[r.case]
+        my = series(r, m.mechanism, "stress:boom.pivot:My", m.parts).values[0]
+        A = evaluate_tree(m.mechanism, r.q[0], derivatives=False).A[
+            m.mechanism.link_index("boom")]
+        ex = A[:3, 0]
+        g = np.array([0.0, 0.0, -G])
+        g_perp = np.linalg.norm(g - (g @ ex) * ex)
+        hand = g_perp * RHO * 8.0 * AREAS @ np.array([4.0, 12.0, 20.0])
+        assert -0.03 < my / hand - 1 < 0.0, (r.case, my, hand)
