@@ -99,9 +99,9 @@ _LABELS = {"displacement": _SCALARS, "von_mises": "von Mises stress, MPa"}
 
 def _scalar(shape, X, fields, eta, d, color):
     """Colour values of points X of ``shape``: elastic displacement (mm) or von Mises
-    (MPa, on the shape's own points only: a centre line has no stress)."""
+    (MPa; a slender link's centre line shows each slice's largest)."""
     if color == "von_mises":
-        v = shape.von_mises(eta) if X is shape.points else None
+        v = shape.von_mises(eta) if X is shape.points else shape.spine_von_mises(eta)
         return None if v is None else 1e-6 * v
     return 1e3 * d
 
@@ -128,8 +128,8 @@ class _Drawn:
             for X, fields, mesh in parts:
                 self.meshes.append((shape, X, fields, mesh))
                 is_line = mesh.n_lines > 0
-                coloured = flexible and (style.color != "von_mises" or (
-                    shape.stress is not None and X is shape.points))
+                coloured = flexible and (style.color != "von_mises" or
+                                         shape.stress is not None)
                 kw = {"line_width": lw, "render_lines_as_tubes": True} if is_line else {}
                 if ghost:
                     plotter.add_mesh(mesh, style="wireframe" if not is_line else "surface",

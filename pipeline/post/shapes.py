@@ -52,13 +52,24 @@ class LinkShape:
         points in slices along the principal axis; the modal fields are averaged with the
         same weights, so the line moves with the link.
         """
-        if self.triangles is None:
-            return None
-        W = _slice_means(self.points)
+        W = self.spine_weights
         if W is None:
             return None
         fields = None if self.modes is None else np.einsum("sn,knc->ksc", W, self.modes)
         return W @ self.points, fields
+
+    @cached_property
+    def spine_weights(self) -> np.ndarray | None:
+        """(S, N) weights of the surface points in each point of :attr:`spine`, or None."""
+        return None if self.triangles is None else _slice_means(self.points)
+
+    def spine_von_mises(self, eta: np.ndarray) -> np.ndarray | None:
+        """(S,) the largest von Mises stress (Pa) of each slice of the centre line (the
+        outer fibre's, which a line drawn on top of the surface would otherwise hide)."""
+        v, W = self.von_mises(eta), self.spine_weights
+        if v is None or W is None:
+            return None
+        return np.max(np.where(W > 0, v[None, :], 0.0), axis=1)
 
 
 def shape_from_reduced(reduced, modes=None, link: str | None = None) -> LinkShape:

@@ -252,3 +252,49 @@ def test_place_labels_avoids_taken_boxes():
         assert a[1] >= 40
         for b in boxes[i + 1:]:
             assert not (a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3])
+
+
+def _stressed_bar():
+    """A slender box surface 1 m long along x with one mode whose stress is sigma_xx =
+    1e6 y x (bending-like: largest at the top and bottom faces, growing along x)."""
+    from pipeline.post.primitives import box_surface
+
+    pts, tri = box_surface([1.0, 0.02, 0.02], [0.5, 0.0, 0.0])
+    modes = np.zeros((1, len(pts), 3))
+    modes[0, :, 1] = 0.01 * pts[:, 0] ** 2
+    stress = np.zeros((1, len(pts), 6))
+    stress[0, :, 0] = 1e6 * pts[:, 1] * pts[:, 0]
+    return LinkShape("b", pts, tri, None, modes, stress)
+
+
+def test_von_mises_of_a_shape_and_its_centre_line():
+    s = _stressed_bar()
+    v = s.von_mises(np.array([2.0]))
+    np.testing.assert_allclose(v, np.abs(2e6 * s.points[:, 1] * s.points[:, 0]), atol=1e-9)
+    spine = s.spine_von_mises(np.array([2.0]))
+    W = s.spine_weights
+    assert spine.shape == (W.shape[0],)
+    for k in range(W.shape[0]):  # each slice shows its largest, not its mean (which is 0)
+        assert spine[k] == pytest.approx(v[W[k] > 0].max())
+    assert s.von_mises(np.zeros(0)) is None and LinkShape("r", s.points).von_mises([1.0]) is None
+
+
+@pytest.mark.render
+def test_still_coloured_by_von_mises(tmp_path):
+    """The colour bar reads von Mises stress in MPa and spans the largest stress drawn."""
+    from pipeline.post.scene import Style, _clim, render_machine
+
+    mech = build_mechanism([rigid_link("ground"), flexible_link("b", {
+        "tip": (translation([1.0, 0, 0]), np.array([[0.0, 0.01, 0.0]]),
+                np.array([[0.0, 0.0, 0.02]]))})],
+        [Joint("j", "revolute", "ground", "body", "b", "body")])
+    shapes = {"b": _stressed_bar()}
+    q = np.array([0.1, 3.0])
+    clim = _clim(mech, shapes, [q], 1.0, "von_mises")
+    assert clim[1] == pytest.approx(3.0 * 1e6 * 0.01 * 1.0 / 1e6, rel=1e-9)  # MPa at the tip
+    pic = render_machine(tmp_path / "vm.png", mech, shapes, q, scale=5.0,
+                         style=Style(color="von_mises"), window_size=(400, 300))
+    from PIL import Image
+
+    img = np.asarray(Image.open(pic.path).convert("RGB")).astype(float)
+    assert img.std() > 5
