@@ -153,7 +153,7 @@ def transform_modes(link: ReducedLink, Q: np.ndarray, note: dict | None = None) 
     freq = np.sqrt(np.maximum(np.diag(K) / np.diag(M), 0.0)) / (2 * np.pi)
     frames = tuple(FrameModes(f.name, f.pose, Q.T @ f.phi, Q.T @ f.psi, f.kind)
                    for f in link.frames)
-    KG, S = link.geometric_stiffness, link.stress_modes
+    KG, KF, S = link.geometric_stiffness, link.force_geometric_stiffness, link.stress_modes
     meta = dict(link.meta)
     if note:
         meta["modal_basis"] = {**dict(meta.get("modal_basis", {})), **note}
@@ -163,4 +163,5 @@ def transform_modes(link: ReducedLink, Q: np.ndarray, note: dict | None = None) 
         modal_stiffness=0.5 * (K + K.T), modal_mass=0.5 * (M + M.T), frequencies_hz=freq,
         frames=frames, mode_shapes=shapes, meta=meta,
         geometric_stiffness=np.einsum("ba,cbd,de->cae", Q, KG, Q) if KG.size else KG,
+        force_geometric_stiffness=np.einsum("ba,fkbd,de->fkae", Q, KF, Q) if KF.size else KF,
         stress_modes=np.einsum("ba,bnk->ank", Q, S).astype(np.float32) if S.size else S)

@@ -66,6 +66,9 @@ class ReducedLink:
     geometric_stiffness : (6, m, m) centrifugal geometric stiffness K_G,c per unit
         product of body angular-velocity components (see
         :mod:`pipeline.invariants.stiffening`), N m s^2; (0, m, m) when not computed.
+    force_geometric_stiffness : (F, 3, m, m) geometric stiffness per unit force (N) along
+        each body axis at each frame (in ``frames`` order), N m / N; (0, 3, m, m) when not
+        computed.
     stress_modes : (m, N, 6) float32 per unit modal coordinate at the nodes: solids the
         stress in body axes, Voigt [xx, yy, zz, yz, xz, xy], Pa; beams the section
         resultants [N, Vy, Vz, T, My, Mz] in element axes, N and N m
@@ -90,11 +93,14 @@ class ReducedLink:
     meta: Mapping[str, Any] = field(default_factory=dict)
     geometric_stiffness: np.ndarray | None = None
     stress_modes: np.ndarray | None = None
+    force_geometric_stiffness: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         m = int(self.frequencies_hz.shape[0])
         if self.geometric_stiffness is None:
             object.__setattr__(self, "geometric_stiffness", np.zeros((0, m, m)))
+        if self.force_geometric_stiffness is None:
+            object.__setattr__(self, "force_geometric_stiffness", np.zeros((0, 3, m, m)))
         if self.stress_modes is None:
             object.__setattr__(self, "stress_modes",
                                np.zeros((0, int(self.nodes.shape[0]), 6), np.float32))

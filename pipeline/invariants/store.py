@@ -24,7 +24,8 @@ FORMAT_VERSION = 2  # 2: the digest covers the header
 
 _ARRAYS = ("body_pose", "C", "Cp", "Cpp", "modal_stiffness", "modal_mass",
            "frequencies_hz", "nodes", "cells", "surface", "mode_shapes")
-_OPTIONAL = ("geometric_stiffness", "stress_modes")  # absent when not computed
+_OPTIONAL = ("geometric_stiffness", "force_geometric_stiffness",
+             "stress_modes")  # absent when not computed
 
 
 def _digest(arrays: dict[str, np.ndarray], header: dict) -> str:

@@ -19,7 +19,7 @@ from pydantic import ValidationError
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.dynamics import BodyMass, System, body_from_reduced
 from pipeline.dynamics.bodies import in_plane_modes, project_on_plane
-from pipeline.dynamics.forces import FORCES, CentrifugalStiffening
+from pipeline.dynamics.forces import FORCES, GeometricStiffening
 from pipeline.kinematics import Joint, build_mechanism, evaluate_tree, rigid_link
 from pipeline.kinematics.drivers import driver_from_dict
 from pipeline.kinematics.initial import initial_positions, initial_velocities
@@ -367,16 +367,20 @@ def build_forces(wf: Workflow, mech, q0) -> list:
 
 
 def stiffening_elements(wf: Workflow, parts) -> list:
-    """A :class:`CentrifugalStiffening` element per flexible link with
-    ``geometric_stiffening: true`` and kept modes (named ``<link>:geometric_stiffening``)."""
+    """A :class:`GeometricStiffening` element per flexible link with
+    ``geometric_stiffening: true`` and kept modes (named ``<link>:geometric_stiffening``):
+    its own centrifugal load and the forces other elements apply at its frames."""
     out = []
     for name, entry in wf.spec.links.items():
         part = parts.get(name)
         if not getattr(entry, "geometric_stiffening", False) or part is None or not part.modes:
             continue
         idx = list(part.modes)
-        KG = part.reduced.geometric_stiffness[:, idx][:, :, idx]
-        out.append(CentrifugalStiffening(f"{name}:geometric_stiffening", name, KG))
+        red = part.reduced
+        KG = red.geometric_stiffness[:, idx][:, :, idx]
+        KF = red.force_geometric_stiffness[:, :, idx][:, :, :, idx]
+        out.append(GeometricStiffening(f"{name}:geometric_stiffening", name, KG,
+                                       tuple(f.name for f in red.frames), KF))
     return out
 
 

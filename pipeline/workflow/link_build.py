@@ -110,9 +110,9 @@ def _sections_per_member(spec: LinkSpec) -> list:
 
 
 #: bumped whenever the reduction's numbers change for the same spec (2: repeated
-#: frequencies completed and aligned with the body axes; 3: stress modes), so cached
-#: artifacts are rebuilt
-REDUCTION_REVISION = 3
+#: frequencies completed and aligned with the body axes; 3: stress modes; 4: frame-force
+#: geometric stiffness), so cached artifacts are rebuilt
+REDUCTION_REVISION = 4
 
 
 def input_hash(spec: LinkSpec, files: tuple[Path, ...]) -> str:

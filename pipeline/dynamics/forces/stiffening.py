@@ -1,46 +1,56 @@
-"""Centrifugal geometric stiffening of a flexible link as a force element.
+"""Geometric stiffening of a flexible link as a force element.
 
-The link's reduced artifact holds K_G,c (6, m, m), the geometric stiffness of its modes
-under the unit centrifugal load cases (:mod:`pipeline.invariants.stiffening`). In
-motion, with w the link's body angular velocity (body axes),
+The link's reduced artifact holds the geometric stiffness of its modes under unit load
+cases (:mod:`pipeline.invariants.stiffening`): K_G,c (6, m, m) for the six products of the
+body angular velocity w (its own centrifugal load) and K_F (F, 3, m, m) for unit forces
+along the body axes at each of its frames. In motion,
 
-    Q_eta = -K_G(w) eta,    K_G(w) = sum_c p_c(w) K_G,c,
+    Q_eta = -(sum_c p_c(w) K_G,c + sum_f sum_k F_f,k K_F,f,k) eta,
 
-the stiffening that the linear modal kinematics miss (a spinning blade, a slewing boom).
-The force depends on the rates, so it is booked as non-conservative: its power
-``Q . qd`` enters the run's energy balance as work exchanged, and the balance stays
-exact. (The consistent Lagrangian term would add O(eta^2) gyroscopic corrections,
-left out as in the usual linear stress-stiffening formulations.)
+with F_f the body-axes force that the other force elements apply at frame f (a point
+force pulling a rod, a load hanging from a boom tip): the stiffening (or, in compression,
+softening) that the linear modal kinematics miss. Forces that joints transmit (the axial
+force of a connecting rod between two pins) are not included yet. The force depends on
+the rates and on the other elements, so it is booked as non-conservative: its power
+``Q . qd`` enters the run's energy balance as work exchanged, and the balance stays exact.
+(The consistent Lagrangian term would add O(eta^2) gyroscopic corrections, left out as in
+the usual linear stress-stiffening formulations.)
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
 
 from pipeline.core.errors import ConfigError
-from pipeline.dynamics.forces.base import ForceElement
+from pipeline.dynamics.forces.base import ForceElement, marker_pose
 
 #: products w_i w_j in the order of the stored cases (pipeline.fem.geometric)
 _PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 
 
 @dataclass(frozen=True, eq=False)
-class CentrifugalStiffening(ForceElement):
-    """Geometric stiffening of link ``link`` by its own spin.
+class GeometricStiffening(ForceElement):
+    """Geometric stiffening of link ``link`` by its own spin and by the forces other
+    elements apply at its frames.
 
     Attributes
     ----------
     name : element name.
     link : the flexible link.
     stiffness : (6, m, m) K_G,c of the link's kept modes, N m s^2 per modal unit^2.
+    frames : names of the frames ``frame_stiffness`` refers to.
+    frame_stiffness : (F, 3, m, m) K_F per unit body-axes force at each frame, m per
+        modal unit^2 (empty: no force stiffening).
     """
 
     name: str
     link: str
     stiffness: np.ndarray
+    frames: tuple = ()
+    frame_stiffness: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 0, 0)))
 
     conservative: ClassVar[bool] = False
 
@@ -52,11 +62,41 @@ class CentrifugalStiffening(ForceElement):
             raise ConfigError(f"force element '{self.name}': stiffness: expected shape "
                               f"(6, {idx.size}, {idx.size}) for the kept modes of link "
                               f"{self.link!r}, got {K.shape}")
+        KF = np.asarray(self.frame_stiffness)
+        if KF.size and KF.shape != (len(self.frames), 3, idx.size, idx.size):
+            raise ConfigError(f"force element '{self.name}': frame_stiffness: expected shape "
+                              f"({len(self.frames)}, 3, {idx.size}, {idx.size}), got {KF.shape}")
 
     def stiffness_at(self, omega: np.ndarray) -> np.ndarray:
         """(m, m) K_G(w) for the body angular velocity w (3,) rad/s, body axes."""
         p = np.array([omega[i] * omega[j] for i, j in _PAIRS])
         return np.einsum("c,cab->ab", p, self.stiffness)
+
+    def frame_forces(self, system, tree, q, qd, t) -> np.ndarray:
+        """(F, 3) body-axes force (N) the other force elements apply at each frame; a load
+        whose point is not at one of the frames (within 1e-6 m) is not counted."""
+        out = np.zeros((len(self.frames), 3))
+        if not np.size(self.frame_stiffness):
+            return out
+        mech = system.mechanism
+        R = tree.A[mech.link_index(self.link)][:3, :3]
+        where = np.array([marker_pose(system, self.link, f, tree, q)[:3, 3]
+                          for f in self.frames])
+        for element in system.forces:
+            if isinstance(element, GeometricStiffening):
+                continue
+            try:
+                loads = element.loads(system, tree, q, qd, t)
+            except NotImplementedError:
+                continue
+            for load in loads:
+                if load.link != self.link:
+                    continue
+                d = np.linalg.norm(where - load.point, axis=1)
+                f = int(np.argmin(d))
+                if d[f] <= 1e-6:
+                    out[f] += R.T @ load.force
+        return out
 
     def _force(self, system, tree, q, qd, t):
         mech = system.mechanism
@@ -65,8 +105,12 @@ class CentrifugalStiffening(ForceElement):
         R = tree.A[li][:3, :3]
         W = R.T @ np.einsum("k,kij->ij", qd, tree.dA[li][:, :3, :3])  # [w]x, body axes
         omega = 0.5 * np.array([W[2, 1] - W[1, 2], W[0, 2] - W[2, 0], W[1, 0] - W[0, 1]])
+        K = self.stiffness_at(omega)
+        if np.size(self.frame_stiffness):
+            F = self.frame_forces(system, tree, q, qd, t)
+            K = K + np.einsum("fk,fkab->ab", F, self.frame_stiffness)
         Q = np.zeros_like(q)
-        Q[idx] = -self.stiffness_at(omega) @ q[idx]
+        Q[idx] = -K @ q[idx]
         return Q
 
     def loads(self, system, tree, q, qd, t):
