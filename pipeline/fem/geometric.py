@@ -5,7 +5,9 @@ A member carrying an axial force N resists lateral deflection by
 Green-Lagrange strain, ``eps = u_x' + (u_x'^2 + u_y'^2 + u_z'^2) / 2``, times the
 prestress. :func:`beam_geometric_stiffness` assembles that form for per-element axial
 forces (constant along an element, as the linear axial field of the element gives
-them; torsion-bending (Wagner) terms are left out).
+them; torsion-bending (Wagner) terms are left out). For P2 solids the form is
+``int sigma_ij du_k/dx_i dv_k/dx_j dV`` with the prestress sigma of the load case
+(:func:`solid_modal_geometric_stiffness`, projected on the modes element by element).
 
 The prestress comes from load cases solved on the FE model: :func:`centrifugal_loads`
 gives the consistent nodal loads of the six unit centrifugal cases of a link spinning
@@ -35,7 +37,8 @@ from pipeline.fem.beam import (
 from pipeline.fem.model import FemModel
 
 __all__ = ["CENTRIFUGAL_CASES", "beam_axial_forces", "beam_geometric_stiffness",
-           "centrifugal_fields", "centrifugal_loads", "centrifugal_products"]
+           "centrifugal_fields", "centrifugal_loads", "centrifugal_products",
+           "solid_centrifugal_loads", "solid_modal_geometric_stiffness"]
 
 #: The six products of angular-velocity components the centrifugal field is linear in.
 CENTRIFUGAL_CASES = ("wx^2", "wy^2", "wz^2", "wx*wy", "wx*wz", "wy*wz")
@@ -138,6 +141,49 @@ def beam_geometric_stiffness(model: FemModel, axial_force: np.ndarray) -> sp.csr
     _add(K, _PLANE_XZ, N[:, None, None] * h_g * np.outer(_XZ_SIGN, _XZ_SIGN))
     elem_dofs = model.node_dofs[model.extras["cells"]].reshape(len(lengths), 12)
     return _scatter(_to_link_frame(K, frames), elem_dofs, model.n_dof)
+
+
+def solid_centrifugal_loads(model: FemModel, origin, axes=None) -> np.ndarray:
+    """(6, n_dof) consistent nodal loads of the unit centrifugal cases of a P2 solid, N per
+    (rad/s)^2: the consistent mass times the nodal values of the linear field B_c (r - o)
+    (exact: P2 interpolates a linear field exactly)."""
+    d = model.nodes - np.asarray(origin, dtype=float)
+    out = np.zeros((6, model.n_dof))
+    for c, B in enumerate(centrifugal_fields(axes)):
+        field = np.zeros(model.n_dof)
+        field[model.node_dofs] = d @ B.T
+        out[c] = model.mass @ field
+    return out
+
+
+def solid_modal_geometric_stiffness(model: FemModel, u: np.ndarray, Phi: np.ndarray,
+                                    batch: int = 20_000) -> np.ndarray:
+    """(m, m) Phi^T K_sigma Phi of a P2 solid prestressed by the displacement u (n_dof,):
+    ``int sigma_ij dphi_k/dx_i dpsi_k/dx_j dV`` with sigma the element stress of u at the
+    quadrature points (degree-3 rule: exact for straight elements), Phi (n_dof, m)."""
+    from pipeline.fem.p2_kernel import ReferenceRule, inverse_and_det
+
+    cells = np.asarray(model.extras["cells"])
+    lam, mu = model.extras["material"].lame
+    rule = ReferenceRule.of_order(3)
+    U = np.asarray(u, dtype=float)[model.node_dofs]  # (N, 3)
+    P = np.asarray(Phi, dtype=float)[model.node_dofs]  # (N, 3, m)
+    m = P.shape[-1]
+    out = np.zeros((m, m))
+    for start in range(0, len(cells), batch):
+        c = cells[start:start + batch]
+        J = np.einsum("eni,qnk->eqik", model.nodes[c], rule.dN, optimize=True)
+        invJ, det = inverse_and_det(J)
+        G = np.einsum("qnk,eqka->eqna", rule.dN, invJ, optimize=True)  # dN_n/dx_a
+        grad = np.einsum("eqna,enb->eqba", G, U[c], optimize=True)  # du_b/dx_a at [b, a]
+        eps = 0.5 * (grad + np.swapaxes(grad, -1, -2))
+        tr = np.trace(eps, axis1=-2, axis2=-1)
+        sig = 2 * mu * eps + lam * tr[..., None, None] * np.eye(3)
+        w = np.abs(det) * rule.weights  # (e, q)
+        S = np.einsum("eq,eqna,eqab,eqpb->enp", w, G, sig, G, optimize=True)  # (e, 10, 10)
+        Pe = P[c]  # (e, 10, 3, m)
+        out += np.einsum("enp,enkx,epky->xy", S, Pe, Pe, optimize=True)
+    return 0.5 * (out + out.T)
 
 
 def _check_beam(model: FemModel) -> None:

@@ -11,7 +11,7 @@ modes -- and its geometric stiffness is projected on the modes:
 so that in motion the modal equations gain ``sum_c p_c(w) K_G,c eta`` (the stiffening the
 linear modal kinematics leaves out: the centrifugal softening is already in C''_ab).
 :func:`frame_force_stiffness` does the same for unit forces at the link's frames (applied
-loads at its pins and markers). Beam links only for now (P2 solids: not yet).
+loads at its pins and markers). Beam links and P2 solids.
 """
 
 from __future__ import annotations
@@ -24,6 +24,8 @@ from pipeline.fem.geometric import (
     beam_axial_forces,
     beam_geometric_stiffness,
     centrifugal_loads,
+    solid_centrifugal_loads,
+    solid_modal_geometric_stiffness,
 )
 from pipeline.fem.interfaces import TiedModel
 from pipeline.fem.model import FemModel
@@ -38,7 +40,7 @@ def centrifugal_stiffness(model: FemModel, tied: TiedModel, basis: ModalBasis,
 
     Parameters
     ----------
-    model, tied : the link's FE model and its tied interfaces.
+    model, tied : the link's FE model (beam or P2 solid) and its tied interfaces.
     basis : its clamped modes (``basis.reference`` is the clamp of the load cases).
     body_pose : (4, 4) body frame in the link frame (origin = spin point, axes = the
         axes w is given in).
@@ -46,50 +48,49 @@ def centrifugal_stiffness(model: FemModel, tied: TiedModel, basis: ModalBasis,
     Returns
     -------
     K_G : (6, m, m) symmetric, N m per (rad/s)^2 per modal unit^2.
-    info : {"cases": names, "largest_axial_force_N": (6,) the largest |N| of each case
-        per (rad/s)^2} for the artifact's provenance.
+    info : {"cases": names} for the artifact's provenance.
     """
-    loads = centrifugal_loads(model, body_pose[:3, 3], body_pose[:3, :3])
-    out, peak = _projected(model, tied, basis, loads, "centrifugal")
-    return out, {"cases": list(CENTRIFUGAL_CASES), "largest_axial_force_N": peak}
+    if model.kind == "beam":
+        loads = centrifugal_loads(model, body_pose[:3, 3], body_pose[:3, :3])
+    else:
+        loads = solid_centrifugal_loads(model, body_pose[:3, 3], body_pose[:3, :3])
+    out = _projected(model, tied, basis, loads, "centrifugal")
+    return out, {"cases": list(CENTRIFUGAL_CASES)}
 
 
 def frame_force_stiffness(model: FemModel, tied: TiedModel, basis: ModalBasis,
                           body_pose: np.ndarray, frames) -> np.ndarray:
     """(F, 3, m, m) geometric stiffness per unit force (N) along each body axis at each
-    of ``frames`` (Interface objects in the artifact's frame order; beams: one node each,
-    the force moved to it with its moment): a rod pulled at its far pin, a boom carrying a
-    load at its tip. N m per N per modal unit^2."""
+    of ``frames`` (Interface objects in the artifact's frame order), the force applied
+    through the frame's own motion operator (the work-conjugate load: a beam node with
+    its moment arm, a solid interface's rigid fit): a rod pulled at its far pin, a boom
+    carrying a load at its tip. N m per N per modal unit^2."""
+    from pipeline.fem.interfaces import interface_operator
+
     R = body_pose[:3, :3]
     loads = []
     for itf in frames:
-        node = int(itf.nodes[0])
-        arm = np.asarray(itf.origin, dtype=float) - model.nodes[node]
-        for k in range(3):
-            f = np.zeros(model.n_dof)
-            F = R[:, k]
-            f[model.node_dofs[node, :3]] = F
-            f[model.node_dofs[node, 3:]] = np.cross(arm, F)
-            loads.append(f)
-    out, _ = _projected(model, tied, basis, np.array(loads), "frame force")
+        G = interface_operator(model, itf)[:3]  # translation of the frame's point
+        loads += [np.asarray(G.T @ R[:, k]).ravel() for k in range(3)]
+    out = _projected(model, tied, basis, np.array(loads), "frame force")
     m = out.shape[-1]
     return out.reshape(len(frames), 3, m, m)
 
 
-def _projected(model, tied, basis, loads, what: str):
-    """Phi^T K_sigma(N_c) Phi of each load case (rows of ``loads``), clamped at the modes'
-    reference; and the largest |N| of each case."""
+def _projected(model, tied, basis, loads, what: str) -> np.ndarray:
+    """Phi^T K_sigma Phi of each load case (rows of ``loads``, full DOFs), solved clamped
+    at the modes' reference."""
     space = clamp_reference(tied, basis.reference)
     lu = factorize(space.project(tied.stiffness), where=f"link {model.name!r}")
     expand = tied.transform @ space.L  # clamped coordinates -> full DOFs
     Phi = basis.shapes
     out = np.empty((len(loads), Phi.shape[1], Phi.shape[1]))
-    peak = []
     for c, f in enumerate(loads):
         report(f"geometric stiffness, {what} case {c + 1} of {len(loads)}")
         u = expand @ lu.solve(expand.T @ f)
-        N = beam_axial_forces(model, u)
-        KG = Phi.T @ (beam_geometric_stiffness(model, N) @ Phi)
+        if model.kind == "beam":
+            KG = Phi.T @ (beam_geometric_stiffness(model, beam_axial_forces(model, u)) @ Phi)
+        else:
+            KG = solid_modal_geometric_stiffness(model, u, Phi)
         out[c] = 0.5 * (KG + KG.T)
-        peak.append(float(np.abs(N).max(initial=0.0)))
-    return out, peak
+    return out

@@ -133,8 +133,8 @@ class ModesSpec(Strict):
     f_max: float | None = Field(None, gt=0, description="keep modes up to this frequency, Hz")
     craig_bampton: bool = Field(False, description="add constraint modes of the other interfaces")
     geometric_stiffening: bool = Field(
-        False, description="compute the centrifugal geometric stiffness of the modes (beam "
-                           "links), used when a workflow sets the link's geometric_stiffening")
+        False, description="compute the geometric stiffness of the modes under their own spin and "
+                           "forces at their frames (beams, P2 solids), used when a workflow sets the link's geometric_stiffening")
 
     @model_validator(mode="after")
     def _one_rule(self):

@@ -270,3 +270,38 @@ def test_spinning_blade_axial_force_is_the_centrifugal_one(tmp_path):
         n = series(r, m.mechanism, f"stress:blade.{frame}:N", m.parts).values[-5:].mean()
         exact = RHO * BLADE_A * BLADE_W ** 2 * (BLADE_L ** 2 - x ** 2) / 2
         assert n == pytest.approx(exact, rel=0.02), frame
+
+
+SOLID_L, SOLID_B, SOLID_H = 0.5, 0.01, 0.02  # bending in the pin plane uses B (along y)
+
+SOLID_ROD = f"""\
+name: rod
+geometry: {{type: solid, recipe: bar, params: {{L: {SOLID_L}, b: {SOLID_B}, h: {SOLID_H}}},
+           mesh_size: 0.005, order: 2}}
+material: {{E: {ROD_E}, nu: 0.3, rho: {RHO}}}
+interfaces:
+  - {{name: A, selector: {{type: group, name: end_x0}}, origin: [0, 0, 0], z_axis: [0, 0, 1]}}
+  - {{name: B, selector: {{type: group, name: end_xL}}, origin: [{SOLID_L}, 0, 0],
+     z_axis: [0, 0, 1]}}
+reference: A
+modes: {{count: 10}}
+"""
+
+
+def test_p2_solid_rod_frequency_follows_its_axial_load(tmp_path):
+    """The pinned rod again as a P2 solid (28.6 k DOF): the prestress of a unit pull at its
+    far interface, solved on the FE model, gives the modes' geometric stiffness through
+    int sigma_ij du/dx_i dv/dx_j; omega^2(N) / omega_0^2 = 1 + N / N_cr within 1 %
+    (measured 0.3 % in tension, 0.9 % in compression at 0.5 N_cr)."""
+    (tmp_path / "rod.yaml").write_text(SOLID_ROD)
+    (tmp_path / "wf.yaml").write_text(ROD_WORKFLOW)
+    n_cr = np.pi ** 2 * ROD_E * SOLID_H * SOLID_B ** 3 / 12 / SOLID_L ** 2
+    freq = []
+    for ratio in (0.0, 0.5, -0.5):
+        m = build_machine(load_workflow(tmp_path / "wf.yaml", sets=[
+            f"forces.axial.force=[{ratio * n_cr!r}, 0, 0]"]), tmp_path / "links")
+        freq.append(float(run_analysis(m, "modes").extra["frequencies_hz"][0]))
+    beam = np.pi / (2 * SOLID_L ** 2) * np.sqrt(ROD_E * SOLID_B ** 2 / 12 / RHO)
+    assert freq[0] == pytest.approx(beam, rel=5e-3)
+    assert (freq[1] / freq[0]) ** 2 == pytest.approx(1.5, rel=0.01)
+    assert (freq[2] / freq[0]) ** 2 == pytest.approx(0.5, rel=0.01)

@@ -1,0 +1,80 @@
+"""Centrifugal geometric-stiffness invariants of a P2 solid bar and of the same bar as a
+Hermite beam against the Rayleigh-Ritz integral of Euler-Bernoulli theory,
+K_G,11 = int rho A (L^2 - x^2) / 2 phi_1'(x)^2 dx (spin about z through the root, first
+in-plane bending mode phi_1, mass-normalised), and the load cases' resultants."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipeline.fem.geometric import centrifugal_products, solid_centrifugal_loads
+from pipeline.workflow.link_build import reduce_spec
+from pipeline.workflow.link_spec import load_link_spec
+
+pytestmark = pytest.mark.gmsh
+
+L, B, H, E, RHO = 0.5, 0.01, 0.02, 2.1e11, 7850.0
+ROOT = 1.8751040687
+
+
+def _eb_kg11() -> float:
+    xg, wg = np.polynomial.legendre.leggauss(200)
+    x, w = 0.5 * L * (xg + 1), 0.5 * L * wg
+    b = ROOT / L
+    s = (np.cosh(b * L) + np.cos(b * L)) / (np.sinh(b * L) + np.sin(b * L))
+    phi = np.cosh(b * x) - np.cos(b * x) - s * (np.sinh(b * x) - np.sin(b * x))
+    dphi = b * (np.sinh(b * x) + np.sin(b * x) - s * (np.cosh(b * x) - np.cos(b * x)))
+    rho_a = RHO * B * H
+    norm = rho_a * (w @ phi ** 2)
+    return float(w @ (rho_a * (L ** 2 - x ** 2) / 2 * dphi ** 2)) / norm
+
+
+def _reduce(folder, geometry: str):
+    beam = "beam" in geometry
+    sections = (f"sections: [{{A: {B * H!r}, Iy: {B * H ** 3 / 12!r}, "
+                f"Iz: {H * B ** 3 / 12!r}, J: 1.0e-9, members: [0]}}]" if beam else "")
+    selector = "{type: nearest, point: [0, 0, 0]}" if beam else "{type: group, name: end_x0}"
+    spec = folder / "bar.yaml"
+    spec.write_text(f"""\
+name: bar
+geometry: {geometry}
+material: {{E: {E}, nu: 0.3, rho: {RHO}}}
+{sections}
+interfaces:
+  - {{name: A, selector: {selector}, origin: [0, 0, 0], z_axis: [0, 0, 1]}}
+reference: A
+modes: {{count: 4, geometric_stiffening: true}}
+""")
+    return reduce_spec(load_link_spec(spec), folder, folder / "links")[0]
+
+
+@pytest.mark.parametrize("kind", ["solid", "beam"])
+def test_centrifugal_stiffness_of_the_first_mode_is_euler_bernoulli(tmp_path, kind):
+    geometry = (f"{{type: solid, recipe: bar, params: {{L: {L}, b: {B}, h: {H}}}, "
+                "mesh_size: 0.005, order: 2}" if kind == "solid" else
+                f"{{type: beam, points: [[0, 0, 0], [{L}, 0, 0]], element_size: 0.02}}")
+    link = _reduce(tmp_path, geometry)
+    tip = np.abs(link.mode_shapes[:, np.argmax(link.nodes[:, 0])])
+    first_y = int(np.argmax(tip[:, 1] > 10 * tip[:, 2]))  # first mode bending along y
+    KG = np.einsum("c,cab->ab", centrifugal_products([0.0, 0.0, 1.0]),
+                   link.geometric_stiffness)
+    assert KG[first_y, first_y] == pytest.approx(_eb_kg11(), rel=0.01)
+
+
+def test_solid_centrifugal_load_resultant_is_m_w2_xc(tmp_path):
+    """Spin w about z through the root: the load resultant is m w^2 x_c along x."""
+    from skfem import MeshTet
+
+    from pipeline.fem import Material, assemble_solid
+    from pipeline.meshing.mesh_data import MeshData
+
+    sk = MeshTet.init_tensor(np.linspace(0, L, 11), np.linspace(-B / 2, B / 2, 2),
+                             np.linspace(-H / 2, H / 2, 3))
+    model = assemble_solid(MeshData(sk.p.T, {"tetra": sk.t.T}, "solid"),
+                           Material(E=E, nu=0.3, rho=RHO), "bar")
+    f = np.einsum("c,cn->n", centrifugal_products([0.0, 0.0, 3.0]),
+                  solid_centrifugal_loads(model, [0, 0, 0]))
+    resultant = f[model.node_dofs].sum(axis=0)
+    np.testing.assert_allclose(resultant, [RHO * B * H * L * 9.0 * L / 2, 0, 0], rtol=1e-10,
+                               atol=1e-9)
