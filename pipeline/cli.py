@@ -29,6 +29,7 @@ def register(name: str, module: str, help_text: str) -> None:
 register("reduce", "reduce", "mesh, assemble and reduce one link; print its summary")
 register("validate", "validate", "check a workflow YAML (file:line errors) without running it")
 register("run", "run", "run a workflow: analyses, plots, renders, exports into output/<name>/")
+register("study", "study", "mode-truncation and design studies of a workflow on Dask")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -11,9 +11,12 @@ ROOT = Path(__file__).resolve().parents[1] / "pipeline"
 ONLY_IN = {
     "gmsh": ("meshing",),
     "pyvista": ("post",),
-    "pydantic": ("workflow",),
+    "pydantic": ("workflow", "study"),
     "yaml": ("workflow",),
     "numba": ("kinematics", "dynamics", "solver"),
+    "distributed": ("study",),
+    "dask": ("study",),
+    "pyarrow": ("study",),
 }
 #: subpackage -> pipeline subpackages it must not import (the solver side stays FE-free)
 FORBIDDEN = {
@@ -24,7 +27,10 @@ FORBIDDEN = {
     "fem": ("modes", "invariants", "kinematics", "dynamics", "post", "workflow"),
     "meshing": ("fem", "modes", "invariants", "kinematics", "dynamics", "post", "workflow"),
     "core": ("meshing", "fem", "modes", "invariants", "kinematics", "dynamics", "post",
-             "workflow"),
+             "workflow", "study"),
+    # studies sit on top of workflows; nothing below imports them
+    "workflow": ("study",),
+    "post": ("study", "workflow"),
 }
 FE_LIBS = ("skfem", "gmsh")
 

@@ -38,3 +38,34 @@ def plot_convergence(path: str | Path, labels, relative: dict, *, reference: str
     ax.grid(True, axis="y", which="both", alpha=0.3)
     ax.legend(fontsize=8)
     return save_figure(fig, path)
+
+
+def plot_outputs(path: str | Path, rows: list[dict], output: str, parameter: str,
+                 title: str | None = None) -> Path:
+    """PNG: a study's derived output (``out:<name>`` of the table rows) against one varied
+    parameter (``set:<path>``, numeric), one point per case."""
+    import json
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    pts = []
+    for r in rows:
+        try:
+            x = float(json.loads(r[f"set:{parameter}"]))
+        except (KeyError, TypeError, ValueError):
+            continue
+        y = r.get(f"out:{output}")
+        if isinstance(y, float) and np.isfinite(y):
+            pts.append((x, y))
+    pts.sort()
+    fig, ax = plt.subplots(figsize=(6.5, 4.0), dpi=110)
+    if pts:
+        ax.plot(*zip(*pts, strict=True), "o-")
+    ax.set_xlabel(parameter)
+    ax.set_ylabel(output)
+    ax.set_title(title or f"{output} against {parameter}")
+    ax.grid(True, alpha=0.3)
+    return save_figure(fig, path)

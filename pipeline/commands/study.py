@@ -1,0 +1,39 @@
+"""``pipeline study STUDY.yaml``: mode-truncation and design studies on Dask."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def add_args(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("study", type=Path, help="study YAML (see docs/studies.md)")
+    parser.add_argument("--out", type=Path, default=Path("output"),
+                        help="output root (default: output); the study writes <out>/<name>/")
+    parser.add_argument("--workers", type=int, default=2,
+                        help="processes of the local Dask cluster (default 2)")
+    parser.add_argument("--scheduler", default=None,
+                        help="address of an existing Dask scheduler, e.g. tcp://host:8786")
+    parser.add_argument("--links", type=Path, default=None,
+                        help="reduced-link cache shared with the workers (default <out>/links)")
+
+
+def run(args: argparse.Namespace) -> int:
+    from pipeline.study.engine import run_study
+
+    res = run_study(args.study, out_root=args.out, workers=max(1, args.workers),
+                    scheduler=args.scheduler, cache_dir=args.links)
+    bad = [r for r in res.rows if r["status"] not in ("ok",)]
+    print(f"{res.folder.name}: {len(res.rows)} cases ({res.ran} run now, "
+          f"{len(res.rows) - res.ran} from the table) -> {res.folder}")
+    for r in res.rows:
+        outs = ", ".join(f"{k[4:]}={v:.6g}" for k, v in r.items()
+                         if k.startswith("out:") and isinstance(v, float))
+        print(f"  {r['case']:<40} {r['status']:<8} {r['seconds']:7.2f} s  {outs}")
+    for link, rec in res.recommendation.items():
+        print(f"  {link}: {rec['recommended']} modes recommended (within "
+              f"{100 * rec.get('tolerance', 0):g} % of {rec['reference']} modes)")
+        for k, ev in rec["evidence"].items():
+            worst = max(ev.values()) if ev else float("nan")
+            print(f"    {k:>3} modes: largest relative RMS difference {100 * worst:.3g} %")
+    return 1 if any(r["status"] in ("error", "lost") for r in bad) else 0

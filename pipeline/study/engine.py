@@ -1,0 +1,364 @@
+"""Running a study's cases on ``dask.distributed`` and writing its table.
+
+* The reduced links are built once, in this process, into the content-addressed link
+  cache; the workers find them there (a case never reduces a link another built).
+* Each case is a task (:func:`run_case`, a plain function of plain values): it loads the
+  base workflow with the case's overrides, runs the analyses and returns its status, the
+  compared series and the derived outputs. A worker that dies costs only the case it held
+  (distributed retries it elsewhere, or it comes back "lost" with the reason).
+* Results are kept per case (``cases/<hash>.npz``) and in one table (``cases.parquet`` and
+  ``cases.csv``: one row per case, parameters, outputs, status, seconds); a case whose
+  input hash is already in the table with a result is not run again, so a study resumes.
+* Progress: a live table of the cases under the running stage on a terminal, a log line
+  per finished case otherwise.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pipeline.core.atomic import atomic_open, save_npz_atomic
+from pipeline.core.errors import ConfigError, PipelineError
+from pipeline.core.progress import report, stage, task_table
+from pipeline.study.cases import Case, study_cases
+from pipeline.study.spec import load_study
+
+logger = logging.getLogger(__name__)
+
+#: rows with these statuses are results; the others (error, lost) are run again
+KEPT = ("ok", "suspect", "partial")
+
+
+@dataclass(frozen=True)
+class StudyResult:
+    """What a study wrote: folder, the table rows (list of dicts), the mode
+    recommendation per link (or {}), and how many cases ran now."""
+
+    folder: Path
+    rows: list[dict]
+    recommendation: dict
+    ran: int
+
+
+def run_case(base: str, quick: bool, overrides: dict, label: str, analyses, cache_dir: str,
+             series_names: list, outputs: list) -> dict:
+    """One case (runs on a worker): status, message, seconds, the compared series
+    ({"analysis:series": (t, values)}) and the derived outputs ({name: value})."""
+    from pipeline.workflow import build_machine, load_workflow
+    from pipeline.workflow.analyses import run_analysis
+    from pipeline.workflow.series import series
+
+    t0 = time.perf_counter()
+    try:
+        wf = load_workflow(base, quick=quick)
+        wf = wf.for_case(overrides, label) if overrides else wf
+        m = build_machine(wf, cache_dir)
+        names = analyses or [a.name for a in wf.spec.analyses]
+        results = {n: run_analysis(m, n) for n in names}
+        out_series = {}
+        for n, r in results.items():
+            for s in series_names:
+                out_series[f"{n}:{s}"] = (np.asarray(r.t), series(r, m.mechanism, s,
+                                                                 m.parts).values)
+        derived = {}
+        for o in outputs:
+            r = results[o["analysis"] or names[0]]
+            v = series(r, m.mechanism, o["series"], m.parts).values
+            derived[o["name"]] = _reduce(v, o["reduce"])
+        worst = [r.verdict for r in results.values()]
+        status = "partial" if "partial" in worst else "suspect" if "suspect" in worst else "ok"
+        message = "; ".join(f"{n}: {r.message}" for n, r in results.items() if r.verdict != "ok")
+    except PipelineError as exc:
+        return {"status": "error", "message": str(exc), "seconds": time.perf_counter() - t0,
+                "series": {}, "outputs": {}}
+    return {"status": status, "message": message, "seconds": time.perf_counter() - t0,
+            "series": out_series, "outputs": derived}
+
+
+def _reduce(v: np.ndarray, how: str) -> float:
+    v = np.asarray(v, dtype=float)
+    if v.size == 0:
+        return float("nan")
+    return float({"max": np.max, "min": np.min, "peak": lambda x: np.max(np.abs(x)),
+                  "final": lambda x: x[-1], "rms": lambda x: np.sqrt(np.mean(x ** 2)),
+                  "mean": np.mean}[how](v))
+
+
+def run_study(study: str | Path, *, out_root: str | Path = "output", workers: int = 2,
+              scheduler: str | None = None, cache_dir: str | Path | None = None) -> StudyResult:
+    """Run the cases of ``study`` that the table does not hold yet; write the table, the
+    recommendation and the manifest into ``out_root/<study name>/``.
+
+    Parameters
+    ----------
+    workers : processes of the local cluster (ignored with ``scheduler``).
+    scheduler : address of an existing Dask scheduler (``tcp://host:8786``).
+    cache_dir : reduced-link cache, shared with the workers (default
+        ``<out_root>/links``; with a remote cluster it must be on a shared filesystem).
+
+    Raises
+    ------
+    ConfigError
+        Bad study or base workflow (named by file and line); distributed not installed.
+    """
+    from pipeline.workflow import build_machine, load_workflow
+
+    spec, base = load_study(study)
+    out_root = Path(out_root)
+    folder = out_root / spec.name
+    cache = Path(cache_dir) if cache_dir is not None else out_root / "links"
+    wf = load_workflow(base, quick=spec.quick)
+    if spec.set:
+        wf = wf.for_case(spec.set, "study set")
+    _check_names(spec, wf, study)
+    flexible = [n for n, e in wf.spec.links.items() if e.type == "flexible"]
+    cases = study_cases(spec, base, flexible, _inputs(wf))
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "cases").mkdir(exist_ok=True)
+    old = {r["input_hash"]: r for r in _read_rows(folder) if r.get("status") in KEPT}
+    todo = [c for c in cases if c.input_hash not in old or not _case_file(folder, c).is_file()]
+    with stage(f"study {spec.name}: links"):
+        build_machine(wf, cache)  # reductions shared by content hash with every case
+        for c in todo:
+            if any(".spec" in k for k in c.overrides):
+                build_machine(wf.for_case(c.overrides, c.label), cache)
+    fresh = _run(spec, base, todo, cache, workers, scheduler, folder) if todo else {}
+    rows = []
+    for c in cases:
+        row = fresh.get(c.input_hash) or old.get(c.input_hash)
+        rows.append(row)
+    recommendation = recommend(spec, cases, folder) if spec.truncation else {}
+    _write_table(folder, rows)
+    _write_manifest(folder, spec, base, cases, rows, recommendation)
+    with stage(f"study {spec.name}: plots"):
+        _plots(folder, spec, cases, rows, recommendation)
+    return StudyResult(folder, rows, recommendation, len(todo))
+
+
+def _plots(folder, spec, cases, rows, recommendation) -> None:
+    """Convergence chart per truncated link; each output against each numeric parameter
+    of the design cases."""
+    try:
+        from pipeline.post.study_plot import plot_convergence, plot_outputs
+    except ImportError:  # pragma: no cover - matplotlib comes with the render extra
+        logger.warning("study %s: no plots (matplotlib is not installed)", spec.name)
+        return
+    for link, rec in recommendation.items():
+        ev = rec["evidence"]
+        if not ev:
+            continue
+        counts = sorted(ev)
+        names = sorted({k for e in ev.values() for k in e})
+        plot_convergence(folder / f"truncation_{link}.png", [f"{k} modes" for k in counts],
+                         {n: [ev[k].get(n, np.nan) for k in counts] for n in names},
+                         reference=f"{rec['reference']} modes",
+                         title=f"{link}: difference from {rec['reference']} modes "
+                               f"(recommended {rec['recommended']}, tolerance "
+                               f"{100 * rec['tolerance']:g} %)")
+    design = [r for c, r in zip(cases, rows, strict=True) if c.kind == "design"]
+    params = sorted({k[4:] for c in cases if c.kind == "design" for k in
+                     (f"set:{p}" for p in c.overrides)})
+    for o in spec.outputs:
+        for p in params:
+            plot_outputs(folder / f"{o.name}_vs_{p.replace('.', '_')}.png", design, o.name, p)
+
+
+def _inputs(wf) -> list[Path]:
+    """Files the base workflow reads besides itself: link specs and driver tables."""
+    files = []
+    for entry in wf.spec.links.values():
+        spec = getattr(entry, "spec", None)
+        if isinstance(spec, str):
+            files.append((wf.base_dir / spec).resolve())
+    for d in getattr(wf.spec, "drivers", {}).values():
+        f = d.get("file") if isinstance(d, dict) else None
+        if f:
+            files.append((wf.base_dir / f).resolve())
+    return [f for f in files if f.is_file()]
+
+
+def _check_names(spec, wf, study) -> None:
+    names = [a.name for a in wf.spec.analyses]
+    for a in spec.analyses or []:
+        if a not in names:
+            raise ConfigError(f"{study}: analyses: {a!r} is not an analysis of "
+                              f"{wf.path.name} ({names})")
+    flexible = [n for n, e in wf.spec.links.items() if e.type == "flexible"]
+    if spec.truncation is not None:
+        for link in spec.truncation.links or []:
+            if link not in flexible:
+                raise ConfigError(f"{study}: truncation.links: {link!r} is not a flexible "
+                                  f"link of {wf.path.name} ({flexible})")
+
+
+def _case_file(folder: Path, c: Case) -> Path:
+    return folder / "cases" / f"{c.input_hash[:16]}.npz"
+
+
+def _run(spec, base, todo, cache, workers, scheduler, folder) -> dict[str, dict]:
+    try:
+        from distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise ConfigError("studies need dask.distributed: pip install 'dask[distributed]'") \
+            from None
+    t = spec.truncation
+    names = list(t.series) if t is not None else []
+    outs = [o.model_dump() for o in spec.outputs]
+    where = scheduler or f"a local cluster of {workers} processes"
+    cluster = None
+    # distributed logs its cluster's life at INFO: keep it at this process's level
+    logging.getLogger("distributed").setLevel(max(logging.WARNING,
+                                                  logging.getLogger().getEffectiveLevel()))
+    with stage(f"study {spec.name}: {len(todo)} cases on {where}"):
+        if scheduler is None:
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=None)
+        client = Client(scheduler or cluster)
+        try:
+            futures = {client.submit(run_case, str(base), spec.quick,
+                                     {**spec.set, **c.overrides}, c.label,
+                                     spec.analyses, str(cache), names, outs, pure=False,
+                                     key=f"case-{c.input_hash[:16]}"): c for c in todo}
+            state = {c.input_hash: ["queued", None] for c in todo}
+            began = time.perf_counter()
+            fresh: dict[str, dict] = {}
+            for fut in as_completed(futures):
+                c = futures[fut]
+                try:
+                    res = fut.result()
+                except Exception as exc:  # noqa: BLE001 - a dead worker (KilledWorker) or any task failure is this case's row
+                    res = {"status": "lost", "message": f"{type(exc).__name__}: {exc}",
+                           "seconds": float("nan"), "series": {}, "outputs": {}}
+                fresh[c.input_hash] = _row(c, res)
+                if res["status"] in KEPT:
+                    _save_case(folder, c, res)
+                state[c.input_hash] = [res["status"], res["seconds"]]
+                logger.info("study %s: %s: %s in %.1f s (%d of %d cases done)", spec.name,
+                            c.label, res["status"], res["seconds"], len(fresh), len(todo))
+                report(task_table([(x.label, *state[x.input_hash]) if state[x.input_hash][1]
+                                   is not None else (x.label, "running", time.perf_counter()
+                                                     - began) for x in todo]))
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    return fresh
+
+
+def _row(c: Case, res: dict) -> dict:
+    row = {"case": c.label, "kind": c.kind, "link": c.link, "modes": c.modes,
+           "input_hash": c.input_hash, "status": res["status"], "message": res["message"],
+           "seconds": float(res["seconds"])}
+    row.update({f"set:{k}": json.dumps(v) for k, v in c.overrides.items()})
+    row.update({f"out:{k}": v for k, v in res["outputs"].items()})
+    return row
+
+
+def _save_case(folder: Path, c: Case, res: dict) -> None:
+    arrays = {}
+    for k, (t, v) in res["series"].items():
+        arrays[f"t|{k}"] = np.asarray(t)
+        arrays[f"v|{k}"] = np.asarray(v)
+    save_npz_atomic(_case_file(folder, c), **arrays)
+
+
+def case_series(folder: Path, c: Case) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """{"analysis:series": (t, values)} saved for case ``c``."""
+    with np.load(_case_file(folder, c), allow_pickle=False) as data:
+        keys = sorted({k.split("|", 1)[1] for k in data.files})
+        return {k: (data[f"t|{k}"], data[f"v|{k}"]) for k in keys}
+
+
+def recommend(spec, cases: list[Case], folder: Path) -> dict[str, dict]:
+    """Per link: the smallest kept-mode count whose every compared series stays within
+    the tolerance (relative RMS difference over the common times) of the richest count,
+    and the evidence: {"recommended": k or None, "reference": k_max, "evidence":
+    {count: {series: relative}}}."""
+    t = spec.truncation
+    out: dict[str, dict] = {}
+    by_link: dict[str, list[Case]] = {}
+    for c in cases:
+        if c.kind == "truncation":
+            by_link.setdefault(c.link, []).append(c)
+    for link, cs in by_link.items():
+        ok = [c for c in cs if _case_file(folder, c).is_file()]
+        if not ok:
+            out[link] = {"recommended": None, "reference": None, "evidence": {}}
+            continue
+        ref = max(ok, key=lambda c: c.modes)
+        ref_series = case_series(folder, ref)
+        evidence: dict[int, dict[str, float]] = {}
+        for c in sorted(ok, key=lambda c: c.modes):
+            s = case_series(folder, c)
+            evidence[c.modes] = {k: _relative(s[k][1], v) for k, (_, v) in ref_series.items()
+                                 if k in s}
+        good = [k for k, ev in evidence.items() if k != ref.modes and ev and
+                max(ev.values()) <= t.tolerance]
+        out[link] = {"recommended": min(good) if good else ref.modes, "reference": ref.modes,
+                     "tolerance": t.tolerance, "evidence": evidence}
+    return out
+
+
+def _relative(y: np.ndarray, ref: np.ndarray) -> float:
+    k = min(len(y), len(ref))
+    if k == 0:
+        return float("inf")
+    scale = float(np.sqrt(np.mean(ref[:k] ** 2)))
+    d = float(np.sqrt(np.mean((y[:k] - ref[:k]) ** 2)))
+    return d / scale if scale > 0 else (0.0 if d == 0 else float("inf"))
+
+
+def _read_rows(folder: Path) -> list[dict]:
+    path = folder / "cases.parquet"
+    if not path.is_file():
+        return []
+    import pyarrow.parquet as pq
+
+    return pq.read_table(path).to_pylist()
+
+
+def _write_table(folder: Path, rows: list[dict]) -> None:
+    import csv
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    keys: list[str] = []
+    for r in rows:
+        keys += [k for k in r if k not in keys]
+    full = [{k: r.get(k) for k in keys} for r in rows]
+    table = pa.Table.from_pylist(full)
+    tmp = folder / ".cases.parquet.partial"
+    pq.write_table(table, tmp)
+    tmp.replace(folder / "cases.parquet")
+    with atomic_open(folder / "cases.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=keys)
+        w.writeheader()
+        w.writerows(full)
+
+
+def _write_manifest(folder, spec, base, cases, rows, recommendation) -> None:
+    from pipeline.workflow.link_build import versions
+
+    def plain(x: Any):
+        if isinstance(x, dict):
+            return {str(k): plain(v) for k, v in x.items()}
+        if isinstance(x, float) and not np.isfinite(x):
+            return None
+        return x
+
+    manifest = {"study": spec.model_dump(mode="json"), "workflow": str(base),
+                "versions": versions(),
+                "cases": [{"case": c.label, "overrides": c.overrides,
+                           "input_hash": c.input_hash, "status": r["status"]}
+                          for c, r in zip(cases, rows, strict=True)],
+                "recommendation": plain(recommendation)}
+    with atomic_open(folder / "study.json", "w") as fh:
+        json.dump(manifest, fh, indent=2, default=str)

@@ -1,0 +1,204 @@
+"""Studies on dask.distributed: the mobile crane's boom-mode truncation recommends the seed's
+answer (two modes) from the evidence; a rerun with nothing changed runs nothing; the same
+study through a real ``dask scheduler`` with two ``dask worker`` processes on loopback
+gives the local results bit for bit; a worker killed mid-study costs at most its case,
+which the rerun completes."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("distributed")
+pytest.importorskip("pyarrow")
+
+from pipeline.core.errors import ConfigError
+from pipeline.study.engine import run_study
+from pipeline.study.spec import load_study
+
+pytestmark = pytest.mark.gmsh
+
+ROOT = Path(__file__).resolve().parents[2]
+
+CRANE = f"""\
+name: crane_modes
+workflow: {ROOT / 'workflows' / 'mobile_crane.yaml'}
+quick: true
+analyses: [release]
+truncation:
+  links: [boom]
+  modes: [0, 1, 2, 3]
+  series: [q:HEAVE.d, q:PITCH.theta, q:ROLL.theta]
+  tolerance: 0.01
+outputs:
+  - {{name: peak_heave, series: q:HEAVE.d, reduce: peak}}
+  - {{name: final_pitch, series: q:PITCH.theta, reduce: final}}
+"""
+
+
+@pytest.fixture(scope="module")
+def links(tmp_path_factory):
+    return tmp_path_factory.mktemp("study_links")
+
+
+@pytest.fixture(scope="module")
+def local(tmp_path_factory, links):
+    folder = tmp_path_factory.mktemp("local")
+    (folder / "crane.yaml").write_text(CRANE)
+    return folder, run_study(folder / "crane.yaml", out_root=folder / "out", workers=2,
+                             cache_dir=links)
+
+
+def test_truncation_recommends_two_boom_modes_with_evidence(local):
+    _, res = local
+    assert res.ran == 4 and [r["status"] for r in res.rows] == ["ok"] * 4
+    rec = res.recommendation["boom"]
+    assert rec["recommended"] == 2 and rec["reference"] == 3
+    ev = rec["evidence"]
+    assert max(ev[1].values()) > 0.01 >= max(ev[2].values())  # 1 mode fails, 2 pass
+    assert max(ev[0].values()) > max(ev[1].values()) > max(ev[2].values())
+    table = res.folder / "cases.parquet"
+    import pyarrow.parquet as pq
+
+    rows = pq.read_table(table).to_pylist()
+    assert [r["modes"] for r in rows] == [0, 1, 2, 3]
+    assert all(np.isfinite(r["out:peak_heave"]) for r in rows)
+    manifest = json.loads((res.folder / "study.json").read_text())
+    assert [c["overrides"] for c in manifest["cases"]] == [
+        {"links.boom.modes": k} for k in (0, 1, 2, 3)]
+    assert manifest["recommendation"]["boom"]["recommended"] == 2
+    assert (res.folder / "truncation_boom.png").is_file()
+    assert (res.folder / "cases.csv").read_text().splitlines()[0].startswith("case,")
+
+
+def test_rerun_with_nothing_changed_runs_nothing(local, links):
+    folder, first = local
+    again = run_study(folder / "crane.yaml", out_root=folder / "out", workers=2,
+                      cache_dir=links)
+    assert again.ran == 0
+    assert [r["out:peak_heave"] for r in again.rows] == [r["out:peak_heave"]
+                                                        for r in first.rows]
+
+
+def _cluster(folder: Path, n_workers: int = 2):
+    """A real scheduler and worker processes on loopback; (address, scheduler proc,
+    worker procs)."""
+    dask = shutil.which("dask")
+    if dask is None:
+        pytest.skip("the dask command is not installed")
+    sf = folder / "scheduler.json"
+    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+    sched = subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", "0",
+                              "--no-dashboard", "--scheduler-file", str(sf)],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+    t0 = time.time()
+    while not sf.is_file() and time.time() - t0 < 60:
+        time.sleep(0.2)
+    workers = [subprocess.Popen([dask, "worker", "--scheduler-file", str(sf), "--nthreads",
+                                 "1", "--no-nanny", "--name", f"w{i}"],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                env=env) for i in range(n_workers)]
+    address = json.loads(sf.read_text())["address"]
+    from distributed import Client
+
+    with Client(address, timeout=60) as c:
+        c.wait_for_workers(n_workers, timeout=120)
+    return address, sched, workers
+
+
+def _stop(procs):
+    for p in procs:
+        if p.poll() is None:
+            p.send_signal(signal.SIGTERM)
+    for p in procs:
+        try:
+            p.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            p.kill()
+
+
+def test_scheduler_run_equals_local_run_bit_for_bit(local, links, tmp_path):
+    folder, res = local
+    address, sched, workers = _cluster(tmp_path)
+    try:
+        remote = run_study(folder / "crane.yaml", out_root=tmp_path / "out",
+                           scheduler=address, cache_dir=links)
+    finally:
+        _stop([*workers, sched])
+    assert remote.ran == 4
+    for a, b in zip(res.rows, remote.rows, strict=True):
+        assert a["input_hash"] == b["input_hash"] and b["status"] == "ok"
+        assert a["out:peak_heave"] == b["out:peak_heave"]
+        assert a["out:final_pitch"] == b["out:final_pitch"]
+    for r in res.rows:  # the compared series, saved per case
+
+        la = np.load(res.folder / "cases" / f"{r['input_hash'][:16]}.npz")
+        lb = np.load(remote.folder / "cases" / f"{r['input_hash'][:16]}.npz")
+        assert sorted(la.files) == sorted(lb.files)
+        for k in la.files:
+            np.testing.assert_array_equal(la[k], lb[k])
+    assert remote.recommendation["boom"]["recommended"] == 2
+
+
+@pytest.mark.slow
+def test_killed_worker_costs_at_most_its_case(tmp_path, links):
+    """Eight design cases (luff angles) on two external workers; one worker is killed
+    (SIGKILL) once the study is under way. At most the case it held is lost (distributed
+    retries it elsewhere, or the row says lost); the rerun runs only what is missing."""
+    study = tmp_path / "luff.yaml"
+    angles = [round(-0.6 - 0.08 * k, 3) for k in range(8)]
+    study.write_text(f"""\
+name: luff
+workflow: {ROOT / 'workflows' / 'mobile_crane.yaml'}
+quick: true
+analyses: [release]
+design:
+  grid: {{drivers.LUFF.theta.value: {angles}}}
+outputs:
+  - {{name: peak_heave, series: q:HEAVE.d, reduce: peak}}
+""")
+    address, sched, workers = _cluster(tmp_path)
+    out: dict = {}
+
+    def go():
+        out["res"] = run_study(study, out_root=tmp_path / "out", scheduler=address,
+                               cache_dir=links)
+
+    th = threading.Thread(target=go)
+    th.start()
+    try:
+        cases_dir = tmp_path / "out" / "luff" / "cases"
+        t0 = time.time()
+        while time.time() - t0 < 120 and not (cases_dir.is_dir() and any(cases_dir.iterdir())):
+            time.sleep(0.05)
+        workers[0].send_signal(signal.SIGKILL)
+        th.join(timeout=600)
+    finally:
+        _stop([*workers, sched])
+    res = out["res"]
+    lost = [r for r in res.rows if r["status"] != "ok"]
+    assert len(lost) <= 1
+    again = run_study(study, out_root=tmp_path / "out", workers=1, cache_dir=links)
+    assert again.ran == len(lost)
+    assert all(r["status"] == "ok" for r in again.rows)
+    values = [r["out:peak_heave"] for r in again.rows]
+    assert len(set(values)) == 8  # every angle ran with its own value
+
+
+def test_bad_study_names_file_and_line(tmp_path):
+    p = tmp_path / "bad.yaml"
+    p.write_text(CRANE.replace("tolerance: 0.01", "tolerance: -1"))
+    with pytest.raises(ConfigError, match=r"bad.yaml:\d+: truncation.tolerance"):
+        load_study(p)
+    p.write_text(CRANE.replace("links: [boom]", "links: [jib]"))
+    with pytest.raises(ConfigError, match="'jib' is not a flexible link"):
+        run_study(p, out_root=tmp_path / "out")
