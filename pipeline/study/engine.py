@@ -354,8 +354,10 @@ def _write_manifest(folder, spec, base, cases, rows, recommendation) -> None:
             return None
         return x
 
+    from pipeline.core.hashing import content_hash
+
     manifest = {"study": spec.model_dump(mode="json"), "workflow": str(base),
-                "versions": versions(),
+                "workflow_hash": content_hash({}, (Path(base),)), "versions": versions(),
                 "cases": [{"case": c.label, "overrides": c.overrides,
                            "input_hash": c.input_hash, "status": r["status"]}
                           for c, r in zip(cases, rows, strict=True)],
