@@ -214,7 +214,7 @@ def _clim(mech, shapes, Q, scale, color="displacement"):
 
 def _bar(plotter, scale, clim, color="displacement"):
     if clim[1] > 1e-9:
-        title = f"{_LABELS[color]} (deformation drawn x{scale:g})"
+        title = f"{_LABELS[color]} (drawn x{scale:g})"
         mesh = _pyvista().PolyData(np.zeros((1, 3)))
         mesh.point_data[title] = [0.0]
         plotter.add_mesh(mesh, scalars=title, cmap="viridis", clim=clim, point_size=0.0,
