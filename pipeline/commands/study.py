@@ -35,5 +35,5 @@ def run(args: argparse.Namespace) -> int:
               f"{100 * rec.get('tolerance', 0):g} % of {rec['reference']} modes)")
         for k, ev in rec["evidence"].items():
             worst = max(ev.values()) if ev else float("nan")
-            print(f"    {k:>3} modes: largest relative RMS difference {100 * worst:.3g} %")
+            print(f"    {k:>20}: largest relative RMS difference {100 * worst:.3g} %")
     return 1 if any(r["status"] in ("error", "lost") for r in bad) else 0

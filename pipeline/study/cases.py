@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from pipeline.core.hashing import content_hash
+from pipeline.study.spec import mode_label
 from pipeline.workflow.link_build import REDUCTION_REVISION, versions
 
 
@@ -23,7 +24,8 @@ class Case:
     label : unique, readable ("boom=2 modes", "forces.load.force=[0, -1000, 0]").
     overrides : path -> value, applied to the base workflow as with ``--set``.
     kind : "truncation" or "design".
-    link, modes : the truncation case's link and kept-mode count (else "", -1).
+    link, modes : the truncation case's link and kept modes as text ("2",
+        "effective_mass=0.9"; else ""), order : its place in the study's list (-1).
     input_hash : what the case's results depend on (base file, overrides, analyses,
         versions): a case already in the table with the same hash is not run again.
     """
@@ -32,7 +34,8 @@ class Case:
     overrides: dict[str, Any]
     kind: str
     link: str = ""
-    modes: int = -1
+    modes: str = ""
+    order: int = -1
     input_hash: str = field(default="", compare=False)
 
 
@@ -45,9 +48,11 @@ def study_cases(spec, base_path: Path, flexible_links: list[str],
     t = spec.truncation
     if t is not None:
         for link in t.links or flexible_links:
-            for k in t.modes:
-                out.append(Case(f"{link}={k} modes", {f"links.{link}.modes": k},
-                                "truncation", link, k))
+            for i, k in enumerate(t.modes):
+                label = mode_label(k)
+                out.append(Case(f"{link}: {label} modes" if isinstance(k, int) else
+                                f"{link}: {label}", {f"links.{link}.modes": k},
+                                "truncation", link, label, i))
     d = spec.design
     if d is not None:
         if d.grid:

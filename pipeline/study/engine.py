@@ -154,11 +154,11 @@ def _plots(folder, spec, cases, rows, recommendation) -> None:
         ev = rec["evidence"]
         if not ev:
             continue
-        counts = sorted(ev)
+        counts = list(ev)  # the study's order, leanest first
         names = sorted({k for e in ev.values() for k in e})
-        plot_convergence(folder / f"truncation_{link}.png", [f"{k} modes" for k in counts],
+        plot_convergence(folder / f"truncation_{link}.png", counts,
                          {n: [ev[k].get(n, np.nan) for k in counts] for n in names},
-                         reference=f"{rec['reference']} modes",
+                         reference=rec["reference"],
                          title=f"{link}: difference from {rec['reference']} modes "
                                f"(recommended {rec['recommended']}, tolerance "
                                f"{100 * rec['tolerance']:g} %)")
@@ -277,10 +277,10 @@ def case_series(folder: Path, c: Case) -> dict[str, tuple[np.ndarray, np.ndarray
 
 
 def recommend(spec, cases: list[Case], folder: Path) -> dict[str, dict]:
-    """Per link: the smallest kept-mode count whose every compared series stays within
-    the tolerance (relative RMS difference over the common times) of the richest count,
-    and the evidence: {"recommended": k or None, "reference": k_max, "evidence":
-    {count: {series: relative}}}."""
+    """Per link: the leanest kept-mode entry (in the study's order) whose every compared
+    series stays within the tolerance (relative RMS difference over the common times) of
+    the richest (the last), and the evidence: {"recommended": label, "reference": label,
+    "tolerance": tol, "evidence": {label: {series: relative}}}."""
     t = spec.truncation
     out: dict[str, dict] = {}
     by_link: dict[str, list[Case]] = {}
@@ -288,20 +288,21 @@ def recommend(spec, cases: list[Case], folder: Path) -> dict[str, dict]:
         if c.kind == "truncation":
             by_link.setdefault(c.link, []).append(c)
     for link, cs in by_link.items():
-        ok = [c for c in cs if _case_file(folder, c).is_file()]
+        ok = sorted((c for c in cs if _case_file(folder, c).is_file()), key=lambda c: c.order)
         if not ok:
-            out[link] = {"recommended": None, "reference": None, "evidence": {}}
+            out[link] = {"recommended": None, "reference": None, "tolerance": t.tolerance,
+                         "evidence": {}}
             continue
-        ref = max(ok, key=lambda c: c.modes)
+        ref = ok[-1]
         ref_series = case_series(folder, ref)
-        evidence: dict[int, dict[str, float]] = {}
-        for c in sorted(ok, key=lambda c: c.modes):
+        evidence: dict[str, dict[str, float]] = {}
+        for c in ok:
             s = case_series(folder, c)
             evidence[c.modes] = {k: _relative(s[k][1], v) for k, (_, v) in ref_series.items()
                                  if k in s}
-        good = [k for k, ev in evidence.items() if k != ref.modes and ev and
-                max(ev.values()) <= t.tolerance]
-        out[link] = {"recommended": min(good) if good else ref.modes, "reference": ref.modes,
+        good = [c.modes for c in ok[:-1] if evidence[c.modes] and
+                max(evidence[c.modes].values()) <= t.tolerance]
+        out[link] = {"recommended": good[0] if good else ref.modes, "reference": ref.modes,
                      "tolerance": t.tolerance, "evidence": evidence}
     return out
 

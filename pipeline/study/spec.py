@@ -34,17 +34,37 @@ from pipeline.workflow.yaml_io import error_message, load_yaml
 
 class TruncationSpec(Strict):
     links: list[str] | None = Field(None, description="flexible links (default: all)")
-    modes: list[int] = Field(min_length=2, description="kept-mode counts to compare")
+    modes: list[int | dict[str, Any]] = Field(
+        min_length=2, description="kept modes to compare, leanest first, richest last: "
+                                  "counts, or rules such as {effective_mass: 0.9} or "
+                                  "{f_max: 50}")
     series: list[str] = Field(min_length=1, description="series compared between counts")
     tolerance: float = Field(0.01, gt=0, description="accepted relative RMS difference "
                                                     "from the richest count")
 
     @field_validator("modes")
     @classmethod
-    def _counts(cls, value: list[int]) -> list[int]:
-        if any(v < 0 for v in value) or len(set(value)) != len(value):
-            raise ValueError("expected distinct counts >= 0")
-        return sorted(value)
+    def _counts(cls, value: list) -> list:
+        from pipeline.workflow.schema import ModeSelection
+
+        for v in value:
+            if isinstance(v, dict):
+                ModeSelection.model_validate(v)  # a rule a flexible link accepts
+            elif v < 0:
+                raise ValueError(f"expected counts >= 0, got {v}")
+        labels = [mode_label(v) for v in value]
+        if len(set(labels)) != len(labels):
+            raise ValueError("expected distinct entries")
+        if all(isinstance(v, int) for v in value):
+            return sorted(value)
+        return value
+
+
+def mode_label(v) -> str:
+    """"2" for a count, "effective_mass=0.9" for a rule."""
+    if isinstance(v, dict):
+        return ", ".join(f"{k}={v[k]}" for k in sorted(v))
+    return str(v)
 
 
 class RandomSpec(Strict):

@@ -36,7 +36,7 @@ quick: true
 analyses: [release]
 truncation:
   links: [boom]
-  modes: [0, 1, 2, 3]
+  modes: [0, 1, {{effective_mass: 0.6, directions: [ty]}}, 3]   # a count or a rule
   series: [q:HEAVE.d, q:PITCH.theta, q:ROLL.theta]
   tolerance: 0.01
 outputs:
@@ -59,25 +59,37 @@ def local(tmp_path_factory, links):
 
 
 def test_truncation_recommends_two_boom_modes_with_evidence(local):
+    """The rule {effective_mass: 0.6, directions: [ty]} keeps the boom's first two
+    in-plane modes (61 % + 19 % of its mass): the seed's two modes."""
     _, res = local
     assert res.ran == 4 and [r["status"] for r in res.rows] == ["ok"] * 4
     rec = res.recommendation["boom"]
-    assert rec["recommended"] == 2 and rec["reference"] == 3
+    rule = "directions=['ty'], effective_mass=0.6"
+    assert rec["recommended"] == rule and rec["reference"] == "3"
     ev = rec["evidence"]
-    assert max(ev[1].values()) > 0.01 >= max(ev[2].values())  # 1 mode fails, 2 pass
-    assert max(ev[0].values()) > max(ev[1].values()) > max(ev[2].values())
+    assert list(ev) == ["0", "1", rule, "3"]
+    assert max(ev["1"].values()) > 0.01 >= max(ev[rule].values())  # 1 mode fails, 2 pass
+    assert max(ev["0"].values()) > max(ev["1"].values()) > max(ev[rule].values())
     table = res.folder / "cases.parquet"
     import pyarrow.parquet as pq
 
     rows = pq.read_table(table).to_pylist()
-    assert [r["modes"] for r in rows] == [0, 1, 2, 3]
+    assert [r["modes"] for r in rows] == ["0", "1", rule, "3"]
     assert all(np.isfinite(r["out:peak_heave"]) for r in rows)
     manifest = json.loads((res.folder / "study.json").read_text())
     assert [c["overrides"] for c in manifest["cases"]] == [
-        {"links.boom.modes": k} for k in (0, 1, 2, 3)]
-    assert manifest["recommendation"]["boom"]["recommended"] == 2
+        {"links.boom.modes": k} for k in (0, 1, {"effective_mass": 0.6, "directions": ["ty"]},
+                                          3)]
+    assert manifest["recommendation"]["boom"]["recommended"] == rule
     assert (res.folder / "truncation_boom.png").is_file()
     assert (res.folder / "cases.csv").read_text().splitlines()[0].startswith("case,")
+    from pipeline.workflow import build_machine, load_workflow
+
+    wf = load_workflow(ROOT / "workflows" / "mobile_crane.yaml", quick=True)
+    m = build_machine(wf.for_case({"links.boom.modes": {"effective_mass": 0.6,
+                                                        "directions": ["ty"]}}, "rule"),
+                      res.folder.parent / "links")
+    assert len(m.parts["boom"].modes) == 2
 
 
 def test_rerun_with_nothing_changed_runs_nothing(local, links):
@@ -146,7 +158,7 @@ def test_scheduler_run_equals_local_run_bit_for_bit(local, links, tmp_path):
         assert sorted(la.files) == sorted(lb.files)
         for k in la.files:
             np.testing.assert_array_equal(la[k], lb[k])
-    assert remote.recommendation["boom"]["recommended"] == 2
+    assert remote.recommendation == res.recommendation
 
 
 @pytest.mark.slow
