@@ -214,3 +214,29 @@ def test_bad_study_names_file_and_line(tmp_path):
     p.write_text(CRANE.replace("links: [boom]", "links: [jib]"))
     with pytest.raises(ConfigError, match="'jib' is not a flexible link"):
         run_study(p, out_root=tmp_path / "out")
+
+
+def test_cli_design_study_prints_the_table(tmp_path, links, capsys):
+    """`pipeline study` with a design list: one row per case with its derived output, the
+    exit code 0, and the table files."""
+    from pipeline.cli import main
+
+    study = tmp_path / "luff.yaml"
+    study.write_text(f"""\
+name: luff
+workflow: {ROOT / 'workflows' / 'mobile_crane.yaml'}
+quick: true
+analyses: [release]
+design:
+  cases: [{{drivers.LUFF.theta.value: -0.8}}, {{drivers.LUFF.theta.value: -1.2}}]
+outputs:
+  - {{name: peak_heave, series: q:HEAVE.d, reduce: peak}}
+""")
+    code = main(["study", str(study), "--out", str(tmp_path / "out"), "--workers", "1",
+                 "--links", str(links)])
+    out = capsys.readouterr().out
+    assert code == 0
+    assert "luff: 2 cases (2 run now, 0 from the table)" in out
+    lines = [ln for ln in out.splitlines() if "drivers.LUFF.theta.value=" in ln]
+    assert len(lines) == 2 and all(" ok " in ln and "peak_heave=" in ln for ln in lines)
+    assert (tmp_path / "out" / "luff" / "peak_heave_vs_drivers_LUFF_theta_value.png").is_file()
