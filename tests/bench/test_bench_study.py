@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 import time
 from pathlib import Path
 
@@ -27,17 +28,11 @@ def test_bench_study(tmp_path):
     from pipeline.study.engine import run_case, run_study
     from pipeline.workflow import build_machine, load_workflow
 
-    study = tmp_path / "luff.yaml"
-    study.write_text(f"""\
-name: luff
-workflow: {ROOT / 'workflows' / 'mobile_crane.yaml'}
-quick: true
-analyses: [release]
-design:
-  grid: {{drivers.LUFF.theta.value: {ANGLES}}}
-outputs:
-  - {{name: peak_heave, series: q:HEAVE.d, reduce: peak}}
-""")
+    sys.path.insert(0, str(ROOT / "tests" / "study"))
+    from luff_study import write_luff_study
+
+    study = write_luff_study(tmp_path / "luff.yaml",
+                             f"grid: {{drivers.LUFF.theta.value: {ANGLES}}}")
     links = tmp_path / "links"
     base = ROOT / "workflows" / "mobile_crane.yaml"
     build_machine(load_workflow(base, quick=True), links)  # warm link cache

@@ -21,6 +21,8 @@ import pytest
 pytest.importorskip("distributed")
 pytest.importorskip("pyarrow")
 
+from luff_study import write_luff_study
+
 from pipeline.core.errors import ConfigError
 from pipeline.study.engine import run_study
 from pipeline.study.spec import load_study
@@ -166,18 +168,9 @@ def test_killed_worker_costs_at_most_its_case(tmp_path, links):
     """Eight design cases (luff angles) on two external workers; one worker is killed
     (SIGKILL) once the study is under way. At most the case it held is lost (distributed
     retries it elsewhere, or the row says lost); the rerun runs only what is missing."""
-    study = tmp_path / "luff.yaml"
     angles = [round(-0.6 - 0.08 * k, 3) for k in range(8)]
-    study.write_text(f"""\
-name: luff
-workflow: {ROOT / 'workflows' / 'mobile_crane.yaml'}
-quick: true
-analyses: [release]
-design:
-  grid: {{drivers.LUFF.theta.value: {angles}}}
-outputs:
-  - {{name: peak_heave, series: q:HEAVE.d, reduce: peak}}
-""")
+    study = write_luff_study(tmp_path / "luff.yaml",
+                             f"grid: {{drivers.LUFF.theta.value: {angles}}}")
     address, sched, workers = _cluster(tmp_path)
     out: dict = {}
 
@@ -221,17 +214,8 @@ def test_cli_design_study_prints_the_table(tmp_path, links, capsys):
     exit code 0, and the table files."""
     from pipeline.cli import main
 
-    study = tmp_path / "luff.yaml"
-    study.write_text(f"""\
-name: luff
-workflow: {ROOT / 'workflows' / 'mobile_crane.yaml'}
-quick: true
-analyses: [release]
-design:
-  cases: [{{drivers.LUFF.theta.value: -0.8}}, {{drivers.LUFF.theta.value: -1.2}}]
-outputs:
-  - {{name: peak_heave, series: q:HEAVE.d, reduce: peak}}
-""")
+    study = write_luff_study(tmp_path / "luff.yaml", "cases: [{drivers.LUFF.theta.value: "
+                             "-0.8}, {drivers.LUFF.theta.value: -1.2}]")
     code = main(["study", str(study), "--out", str(tmp_path / "out"), "--workers", "1",
                  "--links", str(links)])
     out = capsys.readouterr().out
