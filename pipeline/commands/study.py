@@ -20,6 +20,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from pipeline.study.engine import run_study
+    from pipeline.study.spec import mode_text
 
     res = run_study(args.study, out_root=args.out, workers=max(1, args.workers),
                     scheduler=args.scheduler, cache_dir=args.links)
@@ -31,9 +32,13 @@ def run(args: argparse.Namespace) -> int:
                          if k.startswith("out:") and isinstance(v, float))
         print(f"  {r['case']:<40} {r['status']:<8} {r['seconds']:7.2f} s  {outs}")
     for link, rec in res.recommendation.items():
-        print(f"  {link}: {rec['recommended']} modes recommended (within "
-              f"{100 * rec.get('tolerance', 0):g} % of {rec['reference']} modes)")
+        if rec["recommended"] is None:
+            print(f"  {link}: no recommendation (no case finished)")
+            continue
+        print(f"  {link}: {mode_text(rec['recommended'])} recommended (within "
+              f"{100 * rec['tolerance']:g} % of {mode_text(rec['reference'])})")
         for k, ev in rec["evidence"].items():
             worst = max(ev.values()) if ev else float("nan")
-            print(f"    {k:>20}: largest relative RMS difference {100 * worst:.3g} %")
+            print(f"    {mode_text(k)}: largest relative RMS difference "
+                  f"{100 * worst:.3g} %")
     return 1 if any(r["status"] in ("error", "lost") for r in bad) else 0

@@ -28,7 +28,7 @@ from pipeline.core.atomic import atomic_open, save_npz_atomic
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.core.progress import report, stage, task_table
 from pipeline.study.cases import Case, study_cases
-from pipeline.study.spec import load_study
+from pipeline.study.spec import load_study, mode_text
 
 logger = logging.getLogger(__name__)
 
@@ -156,11 +156,11 @@ def _plots(folder, spec, cases, rows, recommendation) -> None:
             continue
         counts = list(ev)  # the study's order, leanest first
         names = sorted({k for e in ev.values() for k in e})
-        plot_convergence(folder / f"truncation_{link}.png", counts,
+        plot_convergence(folder / f"truncation_{link}.png", [mode_text(k) for k in counts],
                          {n: [ev[k].get(n, np.nan) for k in counts] for n in names},
-                         reference=rec["reference"],
-                         title=f"{link}: difference from {rec['reference']} modes "
-                               f"(recommended {rec['recommended']}, tolerance "
+                         reference=mode_text(rec["reference"]),
+                         title=f"{link}: difference from {mode_text(rec['reference'])} "
+                               f"(recommended {mode_text(rec['recommended'])}, tolerance "
                                f"{100 * rec['tolerance']:g} %)")
     design = [r for c, r in zip(cases, rows, strict=True) if c.kind == "design"]
     params = sorted({k[4:] for c in cases if c.kind == "design" for k in

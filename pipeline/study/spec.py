@@ -67,6 +67,11 @@ def mode_label(v) -> str:
     return str(v)
 
 
+def mode_text(label: str) -> str:
+    """A mode label as read in a sentence: "2 modes", or the rule as it is."""
+    return f"{label} modes" if label.isdigit() else label
+
+
 class RandomSpec(Strict):
     n: int = Field(ge=1, le=100_000)
     seed: int = 0
