@@ -5,8 +5,10 @@ Units are SI throughout (m, kg, s, N, rad); shapes are in each function's docstr
 
 Links
     :func:`reduce_link` (a link spec YAML -> :class:`ReducedLink`: mesh, FE, modes,
-    invariants, cached by content), :func:`load_link_spec`, :func:`kept_modes` (the mode
-    filter: a count, indices, or only the modes moving in a plane).
+    invariants, stress modes, cached by content), :func:`load_link_spec`,
+    :func:`kept_modes` (the mode filter: a count, indices, a rule, or only the modes
+    moving in a plane), :func:`effective_mass_fractions` (each mode's share of the link's
+    mass and inertia at a frame).
 Mechanism (kinematics)
     :func:`rigid_link`, :func:`link_from_reduced`, :class:`Joint` (types in :data:`JOINTS`),
     :func:`build_mechanism`, :func:`initial_positions`, :func:`dof_report`, :func:`sweep`;
@@ -15,18 +17,20 @@ Mechanism (kinematics)
 Dynamics
     :class:`System`, :class:`BodyMass`, :func:`body_from_reduced`; force elements
     :class:`SpringDamper`, :class:`JointSpringDamper`, :class:`PointForce`,
-    :class:`Torque`, :class:`ForceCylinder`; analyses :func:`static_equilibrium`,
+    :class:`Torque`, :class:`ForceCylinder`, :class:`GeometricStiffening`; analyses :func:`static_equilibrium`,
     :func:`kinetostatics` (with joint reactions), :func:`simulate` (checked transient:
     ``result.verdict``), :func:`vibration_modes`, :func:`marker_motion`.
 Results
     :func:`marker_positions` (positions and deflections in ground or any link's axes),
-    :func:`energies`.
+    :func:`energies`, :func:`series` (any named history, stresses included),
+    :func:`von_mises`, :func:`principal_stresses`.
 Pictures
     :func:`machine_shapes` / :func:`shape_from_reduced`, :func:`render_machine`,
     :func:`render_positions`, :func:`animate_machine`, :func:`render_modes`,
     :func:`write_vtk_series`, :func:`plot_panels`.
-Workflows
-    :func:`load_workflow`, :func:`build_machine`, :func:`run_workflow`, :func:`series`.
+Workflows and studies
+    :func:`load_workflow`, :func:`build_machine`, :func:`run_workflow`, :func:`run_study`
+    (mode-truncation and design studies on Dask, ``docs/studies.md``).
 
 Importing this module is cheap: gmsh, scikit-fem and pyvista load only when a function
 that needs them runs.
@@ -49,6 +53,9 @@ from pipeline.dynamics import (
 )
 from pipeline.dynamics.forces.loads import ForceCylinder, PointForce, Torque
 from pipeline.dynamics.forces.springs import JointSpringDamper, SpringDamper
+from pipeline.dynamics.forces.stiffening import GeometricStiffening
+from pipeline.fem.stress import principal_stresses, von_mises
+from pipeline.invariants.participation import effective_mass_fractions
 from pipeline.invariants.reduced_link import ReducedLink
 from pipeline.kinematics import JOINTS, Joint, build_mechanism, dof_report, rigid_link, sweep
 from pipeline.kinematics.driver_base import Constant
@@ -90,14 +97,23 @@ def reduce_link(spec: str | Path, cache_dir: str | Path = "output/links",
 
 
 __all__ = [
-    "JOINTS", "BodyMass", "Constant", "Curve", "ForceCylinder", "Harmonic", "Joint",
-    "JointSpringDamper", "Limits", "LinkShape", "Panel", "Picture", "PointForce", "Ramp",
-    "ReducedLink", "SimulationResult", "SmoothStep", "SpringDamper", "Style", "System",
-    "Table", "Torque", "animate_machine", "body_from_reduced", "build_machine",
-    "build_mechanism", "dof_report", "energies", "initial_positions",
-    "kept_modes", "kinetostatics", "link_from_reduced", "load_link_spec", "load_workflow",
-    "machine_shapes", "marker_motion", "marker_positions", "plot_panels", "reduce_link",
-    "render_machine", "render_modes", "render_positions", "rigid_link", "run_workflow",
-    "series", "shape_from_reduced", "simulate", "static_equilibrium", "sweep",
-    "vibration_modes", "write_vtk_series",
+    "JOINTS", "BodyMass", "Constant", "Curve", "ForceCylinder", "GeometricStiffening",
+    "Harmonic", "Joint", "JointSpringDamper", "Limits", "LinkShape", "Panel", "Picture",
+    "PointForce", "Ramp", "ReducedLink", "SimulationResult", "SmoothStep", "SpringDamper",
+    "Style", "System", "Table", "Torque", "animate_machine", "body_from_reduced",
+    "build_machine", "build_mechanism", "dof_report", "effective_mass_fractions", "energies",
+    "initial_positions", "kept_modes", "kinetostatics", "link_from_reduced", "load_link_spec",
+    "load_workflow", "machine_shapes", "marker_motion", "marker_positions", "plot_panels",
+    "principal_stresses", "reduce_link", "render_machine", "render_modes", "render_positions",
+    "rigid_link", "run_study", "run_workflow", "series", "shape_from_reduced", "simulate",
+    "static_equilibrium", "sweep", "vibration_modes", "von_mises", "write_vtk_series",
 ]
+
+
+def run_study(study: str | Path, **kwargs):
+    """Run a study YAML (``docs/studies.md``); see :func:`pipeline.study.engine.run_study`
+    for the keywords (``out_root``, ``workers``, ``scheduler``, ``cache_dir``). Needs the
+    ``study`` extra (dask.distributed, pyarrow)."""
+    from pipeline.study.engine import run_study as _run
+
+    return _run(study, **kwargs)
