@@ -224,3 +224,17 @@ def test_cli_design_study_prints_the_table(tmp_path, links, capsys):
     lines = [ln for ln in out.splitlines() if "drivers.LUFF.theta.value=" in ln]
     assert len(lines) == 2 and all(" ok " in ln and "peak_heave=" in ln for ln in lines)
     assert (tmp_path / "out" / "luff" / "peak_heave_vs_drivers_LUFF_theta_value.png").is_file()
+
+
+@pytest.mark.slow
+def test_loader_study_names_a_count_per_flexible_link(tmp_path, links):
+    """studies/loader_modes.yaml: every flexible link gets a count, with evidence; the lift
+    arm needs 2 modes (1 mode is 7 % off on its tip deflection), the lift links none."""
+    res = run_study(ROOT / "studies" / "loader_modes.yaml", out_root=tmp_path / "out",
+                    workers=2, cache_dir=links)
+    assert all(r["status"] == "ok" for r in res.rows)
+    rec = res.recommendation
+    assert set(rec) == {"lower_link", "upper_link", "lift_arm"}
+    assert rec["lift_arm"]["recommended"] == "2"
+    assert max(rec["lift_arm"]["evidence"]["1"].values()) > 0.02
+    assert rec["lower_link"]["recommended"] == rec["upper_link"]["recommended"] == "0"
