@@ -8,7 +8,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from pipeline.core.atomic import atomic_open
+from pipeline.core.atomic import atomic_open, atomic_path
 from pipeline.core.progress import progress_counter
 from pipeline.post.scene import link_poses, posed_points
 
@@ -49,6 +49,57 @@ def machine_grid(mech, shapes, q, scale: float = 1.0):
     if any(s.stress is not None for s in shapes.values()):
         data["von_mises"] = np.concatenate(vm)  # Pa; NaN on links without stress modes
     return np.vstack(pts), cells, data, {"link_id": ids}
+
+
+def peak_von_mises(mech, shapes, Q, chunk: int = 64) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per link with stress modes: ((N,) the largest von Mises stress at each of its points
+    over the rows of Q (T, n), Pa; (N,) the row where it occurs)."""
+    from pipeline.fem.stress import von_mises
+
+    Q = np.asarray(Q, dtype=float)
+    out = {}
+    for name, s in shapes.items():
+        if s.stress is None:
+            continue
+        eta = Q[:, mech.modal_index[mech.link_index(s.link)]]
+        top = np.full(len(s.points), -1.0)
+        at = np.zeros(len(s.points), dtype=int)
+        for start in range(0, len(Q), chunk):  # bounded memory: chunk x N x 6
+            v = von_mises(np.einsum("ta,anc->tnc", eta[start:start + chunk], s.stress))
+            k = np.argmax(v, axis=0)
+            best = v[k, np.arange(v.shape[1])]
+            better = best > top
+            top[better], at[better] = best[better], start + k[better]
+        out[name] = (top, at)
+    return out
+
+
+def write_peak_stress(path, mech, shapes, t, Q) -> Path | None:
+    """One VTU of the machine at its first output with the point data ``von_mises_max``
+    (Pa) and ``time_of_max`` (s): the largest von Mises stress at each point over every
+    output time (not only the frames of the series); NaN on links without stress modes.
+    None when no link has stress modes."""
+    import meshio
+
+    peaks = peak_von_mises(mech, shapes, Q)
+    if not peaks:
+        return None
+    t = np.asarray(t, dtype=float)
+    P, cells, _, cdata = machine_grid(mech, shapes, Q[0], 0.0)
+    vmax, tmax = [], []
+    for name, s in shapes.items():
+        top, at = peaks.get(name, (np.full(len(s.points), np.nan), None))
+        vmax.append(top)
+        tmax.append(np.full(len(s.points), np.nan) if at is None else t[at])
+    mesh = meshio.Mesh(P.astype(np.float32), [(c, a.astype(np.int32)) for c, a in cells],
+                       point_data={"von_mises_max": np.concatenate(vmax).astype(np.float32),
+                                   "time_of_max": np.concatenate(tmax).astype(np.float32)},
+                       cell_data={k: [a.astype(np.int32) for a in v] for k, v in cdata.items()})
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp:
+        meshio.write(tmp, mesh, file_format="vtu")
+    return path
 
 
 def _evenly(n: int, most: int) -> np.ndarray:

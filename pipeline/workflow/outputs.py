@@ -289,7 +289,7 @@ def _animate(folder, wf, machines, results, idx, an, skipped) -> str | None:
 def _vtu(folder, machines, results, max_frames: int, budget_mb: float | None) -> list[str]:
     """One series per result with data. The run's size budget is shared out in order of
     length: what a short series (a static case: one frame) leaves goes to the longer ones."""
-    from pipeline.post.vtk_series import write_vtk_series
+    from pipeline.post.vtk_series import write_peak_stress, write_vtk_series
 
     files = []
     todo = sorted((r for rs in results.values() for r in rs if len(r.t) >= 1),
@@ -299,8 +299,13 @@ def _vtu(folder, machines, results, max_frames: int, budget_mb: float | None) ->
         m = machines[r.case]
         sub = folder / "vtk" / _stem(r)
         share = None if left is None else left / (len(todo) - i)
-        pvd = write_vtk_series(sub, m.mechanism, machine_shapes(m), r.t, r.q, name=_stem(r),
+        shapes = machine_shapes(m)
+        pvd = write_vtk_series(sub, m.mechanism, shapes, r.t, r.q, name=_stem(r),
                                max_steps=max_frames, max_bytes=share)
+        peak = write_peak_stress(sub / f"{_stem(r)}_peak_stress.vtu", m.mechanism, shapes,
+                                 r.t, r.q)
+        if peak is not None:
+            files.append(str(peak.relative_to(folder)))
         if left is not None:
             left -= sum(p.stat().st_size for p in sub.iterdir())
         files.append(str(Path(pvd).relative_to(folder)))

@@ -298,3 +298,33 @@ def test_still_coloured_by_von_mises(tmp_path):
 
     img = np.asarray(Image.open(pic.path).convert("RGB")).astype(float)
     assert img.std() > 5
+
+
+def test_peak_stress_is_the_largest_over_every_output(tmp_path):
+    """The peak-stress VTU holds, per point, the largest von Mises stress over all rows of
+    Q (also between the frames a series would keep) and the time it occurs; NaN on links
+    without stress modes."""
+    import meshio
+
+    from pipeline.post.vtk_series import peak_von_mises, write_peak_stress
+
+    mech = build_mechanism([rigid_link("ground"), flexible_link("b", {
+        "tip": (translation([1.0, 0, 0]), np.array([[0.0, 0.01, 0.0]]),
+                np.array([[0.0, 0.0, 0.02]]))})],
+        [Joint("j", "revolute", "ground", "body", "b", "body")])
+    shapes = {"b": _stressed_bar(), "ground": stick_shape(mech.links[0])}
+    t = np.linspace(0.0, 1.0, 201)
+    eta = np.sin(2 * np.pi * 3 * t) * (1 + t)  # largest |eta| near t = 0.92
+    Q = np.column_stack([0.2 * t, eta])
+    peaks = peak_von_mises(mech, {"b": shapes["b"]}, Q, chunk=7)
+    every = np.array([shapes["b"].von_mises(np.array([e])) for e in eta])  # (T, N)
+    np.testing.assert_allclose(peaks["b"][0], every.max(axis=0), rtol=1e-12)
+    np.testing.assert_array_equal(peaks["b"][1], every.argmax(axis=0))
+    path = write_peak_stress(tmp_path / "peak.vtu", mech, shapes, t, Q)
+    mesh = meshio.read(path)
+    n = len(shapes["b"].points)
+    vmax = mesh.point_data["von_mises_max"]
+    np.testing.assert_allclose(vmax[:n], every.max(axis=0), rtol=1e-6)
+    assert np.isnan(vmax[n:]).all()
+    k = int(np.argmax(every.max(axis=0)))
+    assert mesh.point_data["time_of_max"][k] == pytest.approx(t[every[:, k].argmax()])
