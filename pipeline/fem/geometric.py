@@ -37,7 +37,7 @@ from pipeline.fem.beam import (
 from pipeline.fem.model import FemModel
 
 __all__ = ["CENTRIFUGAL_CASES", "beam_axial_forces", "beam_geometric_stiffness",
-           "centrifugal_fields", "centrifugal_loads", "centrifugal_products",
+           "centrifugal_fields", "centrifugal_loads", "centrifugal_products", "centrifugal_tensor",
            "solid_centrifugal_loads", "solid_modal_geometric_stiffness"]
 
 #: The six products of angular-velocity components the centrifugal field is linear in.
@@ -55,6 +55,26 @@ def centrifugal_products(omega: np.ndarray) -> np.ndarray:
     """
     w = np.asarray(omega, dtype=float)
     return np.array([w[i] * w[j] for i, j in _PAIRS])
+
+
+def centrifugal_tensor(K: np.ndarray) -> np.ndarray:
+    """(3, 3, ...) G with ``sum_ij w_i w_j G_ij = sum_c p_c(w) K_c`` from the six case
+    blocks K (6, ...) of :data:`CENTRIFUGAL_CASES` (a mixed case split evenly between
+    (i, j) and (j, i)): the spin enters as w^T G w, with no case order to know.
+
+    Examples
+    --------
+    >>> K = np.arange(6.0)
+    >>> w = np.array([0.5, -2.0, 1.5])
+    >>> float(w @ centrifugal_tensor(K) @ w) == float(centrifugal_products(w) @ K)
+    True
+    """
+    K = np.asarray(K, dtype=float)
+    G = np.zeros((3, 3) + K.shape[1:])
+    for c, (i, j) in enumerate(_PAIRS):
+        G[i, j] += 0.5 * K[c]
+        G[j, i] += 0.5 * K[c]
+    return G
 
 
 def centrifugal_fields(axes: np.ndarray | None = None) -> np.ndarray:

@@ -20,6 +20,7 @@ from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.dynamics import BodyMass, System, body_from_reduced
 from pipeline.dynamics.bodies import in_plane_modes, project_on_plane
 from pipeline.dynamics.forces import FORCES, GeometricStiffening
+from pipeline.fem.geometric import centrifugal_tensor
 from pipeline.kinematics import Joint, build_mechanism, evaluate_tree, rigid_link
 from pipeline.kinematics.drivers import driver_from_dict
 from pipeline.kinematics.initial import initial_positions, initial_velocities
@@ -377,9 +378,9 @@ def stiffening_elements(wf: Workflow, parts) -> list:
             continue
         idx = list(part.modes)
         red = part.reduced
-        KG = red.geometric_stiffness[:, idx][:, :, idx]
+        G = centrifugal_tensor(red.geometric_stiffness[:, idx][:, :, idx])
         KF = red.force_geometric_stiffness[:, :, idx][:, :, :, idx]
-        out.append(GeometricStiffening(f"{name}:geometric_stiffening", name, KG,
+        out.append(GeometricStiffening(f"{name}:geometric_stiffening", name, G,
                                        tuple(f.name for f in red.frames), KF))
     return out
 

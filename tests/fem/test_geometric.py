@@ -121,3 +121,17 @@ def test_solids_are_refused_with_a_reason():
 
     with pytest.raises(ConfigError, match="beam links only"):
         centrifugal_loads(replace(_model(), kind="solid"), [0, 0, 0])
+
+
+def test_centrifugal_tensor_gives_the_same_stiffness_for_any_spin():
+    """w^T G w from the 3 x 3 form equals sum_c p_c(w) K_c of the six stored cases."""
+    from pipeline.fem.geometric import centrifugal_tensor
+
+    rng = np.random.default_rng(4)
+    K = rng.standard_normal((6, 3, 3))
+    G = centrifugal_tensor(K)
+    for _ in range(5):
+        w = rng.standard_normal(3)
+        np.testing.assert_allclose(np.einsum("i,j,ijab->ab", w, w, G),
+                                   np.einsum("c,cab->ab", centrifugal_products(w), K),
+                                   rtol=1e-12, atol=1e-12)

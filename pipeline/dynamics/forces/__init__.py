@@ -28,20 +28,6 @@ FORCES: dict[str, type[ForceElement]] = {
     "force_cylinder": ForceCylinder,
 }
 
-__all__ = [
-                                            "FORCES",
-                                            "FollowerForce",
-                                            "ForceCylinder",
-                                            "ForceElement",
-                                            "GeometricStiffening",
-                                            "JointForce",
-                                            "JointSpringDamper",
-                                            "LineForce",
-                                            "MarkerPoint",
-                                            "PointForce",
-                                            "SpringDamper",
-                                            "TableSpringDamper",
-                                            "Torque",
-                                            "marker_point",
-                                            "marker_pose",
-]
+__all__ = ["FORCES", "FollowerForce", "ForceCylinder", "ForceElement", "GeometricStiffening",
+           "JointForce", "JointSpringDamper", "LineForce", "MarkerPoint", "PointForce",
+           "SpringDamper", "TableSpringDamper", "Torque", "marker_point", "marker_pose"]

@@ -1,11 +1,11 @@
 """Geometric stiffening of a flexible link as a force element.
 
 The link's reduced artifact holds the geometric stiffness of its modes under unit load
-cases (:mod:`pipeline.invariants.stiffening`): K_G,c (6, m, m) for the six products of the
-body angular velocity w (its own centrifugal load) and K_F (F, 3, m, m) for unit forces
-along the body axes at each of its frames. In motion,
+cases (:mod:`pipeline.invariants.stiffening`): for its own centrifugal load, as G (3, 3,
+m, m) with K_G(w) = sum_ij w_i w_j G_ij for the body angular velocity w, and K_F (F, 3,
+m, m) for unit forces along the body axes at each of its frames. In motion,
 
-    Q_eta = -(sum_c p_c(w) K_G,c + sum_f sum_k F_f,k K_F,f,k) eta,
+    Q_eta = -(sum_ij w_i w_j G_ij + sum_f sum_k F_f,k K_F,f,k) eta,
 
 with F_f the body-axes force that the other force elements apply at frame f (a point
 force pulling a rod, a load hanging from a boom tip): the stiffening (or, in compression,
@@ -33,9 +33,6 @@ import numpy as np
 from pipeline.core.errors import ConfigError
 from pipeline.dynamics.forces.base import ForceElement, marker_pose
 
-#: products w_i w_j in the order of the stored cases (pipeline.fem.geometric)
-_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
-
 
 @dataclass(frozen=True, eq=False)
 class GeometricStiffening(ForceElement):
@@ -46,7 +43,8 @@ class GeometricStiffening(ForceElement):
     ----------
     name : element name.
     link : the flexible link.
-    stiffness : (6, m, m) K_G,c of the link's kept modes, N m s^2 per modal unit^2.
+    stiffness : (3, 3, m, m) G of the link's kept modes, K_G(w) = sum_ij w_i w_j G_ij
+        (:func:`pipeline.fem.geometric.centrifugal_tensor`), N m s^2 per modal unit^2.
     frames : names of the frames ``frame_stiffness`` refers to.
     frame_stiffness : (F, 3, m, m) K_F per unit body-axes force at each frame, m per
         modal unit^2 (empty: no force stiffening).
@@ -65,9 +63,9 @@ class GeometricStiffening(ForceElement):
         mech = system.mechanism
         idx = mech.modal_index[mech.link_index(self.link)]
         K = np.asarray(self.stiffness)
-        if K.shape != (6, idx.size, idx.size):
+        if K.shape != (3, 3, idx.size, idx.size):
             raise ConfigError(f"force element '{self.name}': stiffness: expected shape "
-                              f"(6, {idx.size}, {idx.size}) for the kept modes of link "
+                              f"(3, 3, {idx.size}, {idx.size}) for the kept modes of link "
                               f"{self.link!r}, got {K.shape}")
         KF = np.asarray(self.frame_stiffness)
         if KF.size and KF.shape != (len(self.frames), 3, idx.size, idx.size):
@@ -76,8 +74,7 @@ class GeometricStiffening(ForceElement):
 
     def stiffness_at(self, omega: np.ndarray) -> np.ndarray:
         """(m, m) K_G(w) for the body angular velocity w (3,) rad/s, body axes."""
-        p = np.array([omega[i] * omega[j] for i, j in _PAIRS])
-        return np.einsum("c,cab->ab", p, self.stiffness)
+        return np.einsum("i,j,ijab->ab", omega, omega, self.stiffness)
 
     def frame_forces(self, system, tree, q, qd, t) -> np.ndarray:
         """(F, 3) body-axes force (N) the other force elements apply at each frame; a load
