@@ -136,3 +136,32 @@ def task_table(rows: Iterable[tuple[str, str, float | None]], title: str = ""):
         style = "" if state in ("queued", "running", "ok") else "red"
         table.add_row(name, state, "" if seconds is None else f"{seconds:.1f}", style=style)
     return table
+
+
+class TaskBoard:
+    """The state of a pool's tasks, drawn by :meth:`show` as a :func:`task_table` under the
+    running stage: queued until :meth:`running`, then the state and seconds
+    :meth:`finished` gives (a running task shows its seconds so far)."""
+
+    def __init__(self, names: Iterable[str]):
+        self.names = list(names)
+        self.state = ["queued"] * len(self.names)
+        self.began: list[float | None] = [None] * len(self.names)
+        self.took: list[float | None] = [None] * len(self.names)
+
+    def running(self, k: int, now: float) -> None:
+        """Task k started at ``now`` (perf_counter seconds), unless it already had."""
+        if self.began[k] is None:
+            self.began[k], self.state[k] = now, "running"
+
+    def finished(self, k: int, state: str, seconds: float) -> None:
+        self.state[k], self.took[k] = state, seconds
+
+    @property
+    def n_done(self) -> int:
+        return sum(t is not None for t in self.took)
+
+    def show(self, now: float) -> None:
+        report(task_table([(n, s, t if t is not None else None if b is None else now - b)
+                           for n, s, b, t in zip(self.names, self.state, self.began,
+                                                 self.took, strict=True)]))

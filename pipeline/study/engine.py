@@ -24,9 +24,9 @@ from typing import Any
 
 import numpy as np
 
-from pipeline.core.atomic import atomic_open, save_npz_atomic
+from pipeline.core.atomic import atomic_open, atomic_path, save_npz_atomic
 from pipeline.core.errors import ConfigError, PipelineError
-from pipeline.core.progress import report, stage, task_table
+from pipeline.core.progress import TaskBoard, stage
 from pipeline.study.cases import Case, study_cases
 from pipeline.study.spec import load_study, mode_text
 
@@ -225,12 +225,16 @@ def _run(spec, base, todo, cache, workers, scheduler, folder) -> dict[str, dict]
             futures = {client.submit(run_case, str(base), spec.quick,
                                      {**spec.set, **c.overrides}, c.label,
                                      spec.analyses, str(cache), names, outs, pure=False,
-                                     key=f"case-{c.input_hash[:16]}"): c for c in todo}
-            state = {c.input_hash: ["queued", None] for c in todo}
-            began = time.perf_counter()
+                                     key=f"case-{c.input_hash[:16]}"): k
+                       for k, c in enumerate(todo)}
+            board = TaskBoard(c.label for c in todo)
+            submitted = time.perf_counter()
+            for k in range(len(todo)):  # the scheduler does not say which has started
+                board.running(k, submitted)
             fresh: dict[str, dict] = {}
             for fut in as_completed(futures):
-                c = futures[fut]
+                k = futures[fut]
+                c = todo[k]
                 try:
                     res = fut.result()
                 except Exception as exc:  # noqa: BLE001 - a dead worker (KilledWorker) or any task failure is this case's row
@@ -239,12 +243,10 @@ def _run(spec, base, todo, cache, workers, scheduler, folder) -> dict[str, dict]
                 fresh[c.input_hash] = _row(c, res)
                 if res["status"] in KEPT:
                     _save_case(folder, c, res)
-                state[c.input_hash] = [res["status"], res["seconds"]]
+                board.finished(k, res["status"], res["seconds"])
                 logger.info("study %s: %s: %s in %.1f s (%d of %d cases done)", spec.name,
-                            c.label, res["status"], res["seconds"], len(fresh), len(todo))
-                report(task_table([(x.label, *state[x.input_hash]) if state[x.input_hash][1]
-                                   is not None else (x.label, "running", time.perf_counter()
-                                                     - began) for x in todo]))
+                            c.label, res["status"], res["seconds"], board.n_done, len(todo))
+                board.show(time.perf_counter())
         finally:
             client.close()
             if cluster is not None:
@@ -335,10 +337,8 @@ def _write_table(folder: Path, rows: list[dict]) -> None:
     for r in rows:
         keys += [k for k in r if k not in keys]
     full = [{k: r.get(k) for k in keys} for r in rows]
-    table = pa.Table.from_pylist(full)
-    tmp = folder / ".cases.parquet.partial"
-    pq.write_table(table, tmp)
-    tmp.replace(folder / "cases.parquet")
+    with atomic_path(folder / "cases.parquet") as tmp:
+        pq.write_table(pa.Table.from_pylist(full), tmp)
     with atomic_open(folder / "cases.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=keys)
         w.writeheader()

@@ -29,7 +29,7 @@ from pydantic import Field, ValidationError, field_validator, model_validator
 
 from pipeline.core.errors import ConfigError
 from pipeline.workflow.link_spec import Strict
-from pipeline.workflow.yaml_io import error_message, load_yaml
+from pipeline.workflow.yaml_io import config_error, load_yaml
 
 
 class TruncationSpec(Strict):
@@ -124,14 +124,7 @@ def load_study(path: str | Path) -> tuple[StudySpec, Path]:
     try:
         spec = StudySpec.model_validate(data)
     except ValidationError as exc:
-        err = exc.errors()[0]
-        loc = tuple(err["loc"])
-        key = loc
-        while key and key not in lines:
-            key = key[:-1]
-        where = ".".join(str(x) for x in loc) or "(top)"
-        raise ConfigError(f"{path}:{lines.get(key, 1)}: {where}: {error_message(err)}") \
-            from None
+        raise config_error(exc, path, data, lines) from None
     base = (path.parent / spec.workflow).resolve()
     if not base.is_file():
         raise ConfigError(f"{path}:{lines.get(('workflow',), 1)}: workflow: file "

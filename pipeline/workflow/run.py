@@ -23,7 +23,7 @@ import numpy as np
 
 from pipeline.core.atomic import folder_lock, replace_dir
 from pipeline.core.errors import ConfigError, PipelineError
-from pipeline.core.progress import quiet, report, stage, task_table
+from pipeline.core.progress import TaskBoard, quiet, stage
 from pipeline.workflow.analyses import AnalysisResult, run_analysis
 from pipeline.workflow.build import Machine, build_machine
 from pipeline.workflow.link_build import versions
@@ -171,10 +171,7 @@ def collect_cases(pool, wf, base, tasks, cache_dir, rebuild) -> list[AnalysisRes
     futures = {pool.submit(_case_result, wf, case.set if case else {},
                            case.label if case else "", a.name, cache_dir, rebuild): k
                for k, (a, case) in enumerate(tasks)}
-    names = [f"{a.name}" + (f" / {case.label}" if case else "") for a, case in tasks]
-    state = ["queued"] * len(tasks)
-    began: list[float | None] = [None] * len(tasks)
-    took: list[float | None] = [None] * len(tasks)
+    board = TaskBoard(f"{a.name}" + (f" / {case.label}" if case else "") for a, case in tasks)
     done: list = [None] * len(tasks)
     pending = set(futures)
     while pending:
@@ -185,24 +182,22 @@ def collect_cases(pool, wf, base, tasks, cache_dir, rebuild) -> list[AnalysisRes
             a, case = tasks[k]
             try:
                 done[k] = fut.result()
-                state[k] = done[k].verdict
+                state = done[k].verdict
             except BrokenProcessPool:
                 done[k] = lost_case(base, a, case.label if case else "",
                                     "its worker process died (killed, or out of memory) "
                                     "before the case finished")
                 logger.warning("%s: analysis %r%s: %s", wf.name, a.name,
                                f" case {case.label!r}" if case else "", done[k].message)
-                state[k] = "lost"
-            took[k] = done[k].timings.get("total", now - (began[k] or now))
-            logger.info("%s: %s: %s in %.1f s (%d of %d cases done)", wf.name, names[k],
-                        state[k], took[k], sum(d is not None for d in done), len(tasks))
+                state = "lost"
+            board.finished(k, state, done[k].timings.get(
+                "total", now - (board.began[k] or now)))
+            logger.info("%s: %s: %s in %.1f s (%d of %d cases done)", wf.name,
+                        board.names[k], state, board.took[k], board.n_done, len(tasks))
         for fut in pending:
-            k = futures[fut]
-            if fut.running() and began[k] is None:
-                began[k], state[k] = now, "running"
-        report(task_table([(names[k], state[k], took[k] if took[k] is not None else
-                            (now - began[k] if began[k] is not None else None))
-                           for k in range(len(tasks))]))
+            if fut.running():
+                board.running(futures[fut], now)
+        board.show(now)
     return done
 
 

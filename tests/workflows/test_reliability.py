@@ -681,3 +681,14 @@ def test_joint_reactions_are_series_and_csv_columns(tmp_path):
     with pytest.raises(ConfigError, match="reaction:<joint>"):  # before any analysis
         run_workflow(_write(tmp_path, text.replace("reaction:JB:force", "reaction:JZ:force")),
                      out_root=tmp_path / "out2", cache_dir=tmp_path / "links")
+
+
+def test_task_board_tracks_queued_running_and_finished_tasks():
+    from pipeline.core.progress import TaskBoard
+
+    board = TaskBoard(["a", "b", "c"])
+    board.running(1, 10.0)
+    board.running(1, 12.0)  # started once
+    board.finished(2, "lost", 3.5)
+    assert board.state == ["queued", "running", "lost"] and board.began[1] == 10.0
+    assert board.n_done == 1
