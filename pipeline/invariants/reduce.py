@@ -115,12 +115,12 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
             "stage_seconds": times.as_dict(), "mesh": _mesh_quality(mesh, moments, request),
             **stiffening, **(meta or {})}
     with stage(f"stress modes of link '{name}'", times):
-        from pipeline.fem.stress import stress_modes
+        from pipeline.fem.stress import RESULTANTS, VOIGT, stress_modes
 
         S = _stress_to_body(model, ref.pose, stress_modes(model, basis.shapes))
-    info["stress"] = ({"kind": "resultants", "components": ["N", "Vy", "Vz", "T", "My", "Mz"],
+    info["stress"] = ({"kind": "resultants", "components": list(RESULTANTS),
                        "units": "N, N m, element axes"} if model.kind == "beam" else
-                      {"kind": "voigt", "components": ["xx", "yy", "zz", "yz", "xz", "xy"],
+                      {"kind": "voigt", "components": list(VOIGT),
                        "units": "Pa, body axes", "recovery": "P2 element stress at its nodes, "
                                                              "mean over the elements"})
     link = _to_body_frame(name, model, mesh, basis, moments, motions, markers, ref, info)

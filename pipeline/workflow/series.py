@@ -31,13 +31,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.core.errors import ConfigError
+from pipeline.fem.stress import RESULTANTS, VOIGT, principal_stresses, von_mises
 from pipeline.kinematics import evaluate_tree
 from pipeline.kinematics.poses import step_local
 
 KINDS = ("time", "q", "qd", "qdd", "marker", "deflection", "energy", "driver_force",
          "reaction", "stress", "frequency")
-SOLID_STRESS = ("von_mises", "s1", "s2", "s3", "xx", "yy", "zz", "yz", "xz", "xy")
-BEAM_STRESS = ("N", "Vy", "Vz", "T", "My", "Mz")
+SOLID_STRESS = ("von_mises", "s1", "s2", "s3", *VOIGT)
+BEAM_STRESS = RESULTANTS
 REACTION_COMPONENTS = ("fx", "fy", "fz", "mx", "my", "mz", "force", "moment")
 _COMPONENT = {"x": 0, "y": 1, "z": 2}
 
@@ -163,26 +164,26 @@ def series(result, mech, spec: str, parts=None) -> Series:
 def stress_series(result, mech, parts, spec: str) -> Series:
     """``stress:LINK.FRAME:QUANTITY``: the stress (or beam section resultant) at the FE node
     of the link nearest the frame's origin, from its stress modes and modal coordinates."""
-    from pipeline.fem.stress import principal_stresses, von_mises
-
     link, frame, comp, node = _stress_target(spec, mech, parts)
     part = parts[link]
+    beam = part.reduced.kind == "beam"
+    label = f"{link}.{frame} {comp}" if beam else \
+        f"{link}.{frame} {comp.replace('_', ' ')} stress"
+    unit = ("N m" if comp[0] in "TM" else "N") if beam else "Pa"
     if not part.modes:  # a case that keeps no mode: the link is rigid, its stress unknown
-        return Series(np.full(len(result.t), np.nan), f"{link}.{frame} {comp} (rigid case)",
-                      "Pa" if part.reduced.kind != "beam" else "N")
+        return Series(np.full(len(result.t), np.nan), f"{label} (rigid case)", unit)
     S = np.asarray(part.reduced.stress_modes, dtype=float)[list(part.modes), node]  # (k, 6)
     eta = result.q[:, mech.modal_index[mech.link_index(link)]]
     s = eta @ S  # (T, 6)
-    if part.reduced.kind == "beam":
-        v = s[:, BEAM_STRESS.index(comp)]
-        return Series(v, f"{link}.{frame} {comp}", "N m" if comp[0] in "TM" else "N")
-    if comp == "von_mises":
+    if beam:
+        v = s[:, RESULTANTS.index(comp)]
+    elif comp == "von_mises":
         v = von_mises(s)
     elif comp in ("s1", "s2", "s3"):
         v = principal_stresses(s)[:, int(comp[1]) - 1]
     else:
-        v = s[:, SOLID_STRESS.index(comp) - 4]
-    return Series(v, f"{link}.{frame} {comp.replace('_', ' ')} stress", "Pa")
+        v = s[:, VOIGT.index(comp)]
+    return Series(v, label, unit)
 
 
 def _stress_target(spec: str, mech, parts) -> tuple[str, str, str, int]:

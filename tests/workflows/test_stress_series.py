@@ -80,3 +80,15 @@ def test_stress_series_errors_name_what_exists(loaded):
     with pytest.raises(ConfigError, match=r"flexible link of \['bar'\]"):
         check_series("stress:ground.O:Mz", m.mechanism, "static", m.parts)
     assert np.isfinite(series(loaded[1], m.mechanism, "stress:bar.tip:Mz", m.parts).values).all()
+
+
+def test_a_case_without_modes_has_no_stress(tmp_path):
+    """links.bar.modes=0: the link is rigid, its stress is unknown -- NaN, in the same unit
+    as the flexible case's (a moment in N m)."""
+    (tmp_path / "bar.yaml").write_text(BAR)
+    (tmp_path / "loaded.yaml").write_text(WORKFLOW)
+    m = build_machine(load_workflow(tmp_path / "loaded.yaml", sets=["links.bar.modes=0"]),
+                      tmp_path / "links")
+    r = run_analysis(m, "sag")
+    mz = series(r, m.mechanism, "stress:bar.root:Mz", m.parts)
+    assert mz.unit == "N m" and np.isnan(mz.values).all() and "rigid case" in mz.label
