@@ -97,7 +97,7 @@ _SCALARS = "elastic displacement, mm"
 _LABELS = {"displacement": _SCALARS, "von_mises": "von Mises stress, MPa"}
 
 
-def _scalar(shape, X, fields, eta, d, color):
+def _scalar(shape, X, eta, d, color):
     """Colour values of points X of ``shape``: elastic displacement (mm) or von Mises
     (MPa; a slender link's centre line shows each slice's largest)."""
     if color == "von_mises":
@@ -154,7 +154,7 @@ class _Drawn:
             P, d = _placed(X, fields, poses[li], eta, scale)
             mesh.points = P
             if _SCALARS in mesh.point_data:
-                mesh.point_data[_SCALARS] = _scalar(shape, X, fields, eta, d, self.color)
+                mesh.point_data[_SCALARS] = _scalar(shape, X, eta, d, self.color)
 
 
 class _Pivots:
@@ -205,8 +205,7 @@ def _clim(mech, shapes, Q, scale, color="displacement"):
         poses = link_poses(mech, q)
         for s in shapes.values():
             eta = np.asarray(q, float)[mech.modal_index[mech.link_index(s.link)]]
-            v = _scalar(s, s.points, s.modes, eta, posed_points(mech, s, q, 1.0, poses)[1],
-                        color)
+            v = _scalar(s, s.points, eta, posed_points(mech, s, q, 1.0, poses)[1], color)
             if v is not None:
                 top = max(top, float(np.max(v, initial=0.0)))
     return [0.0, max(top, 1e-9)]

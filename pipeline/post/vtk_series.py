@@ -91,15 +91,23 @@ def write_peak_stress(path, mech, shapes, t, Q) -> Path | None:
         top, at = peaks.get(name, (np.full(len(s.points), np.nan), None))
         vmax.append(top)
         tmax.append(np.full(len(s.points), np.nan) if at is None else t[at])
-    mesh = meshio.Mesh(P.astype(np.float32), [(c, a.astype(np.int32)) for c, a in cells],
-                       point_data={"von_mises_max": np.concatenate(vmax).astype(np.float32),
-                                   "time_of_max": np.concatenate(tmax).astype(np.float32)},
-                       cell_data={k: [a.astype(np.int32) for a in v] for k, v in cdata.items()})
+    mesh = _mesh32(P, cells, {"von_mises_max": np.concatenate(vmax),
+                              "time_of_max": np.concatenate(tmax)}, cdata)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as tmp:
         meshio.write(tmp, mesh, file_format="vtu")
     return path
+
+
+def _mesh32(P, cells, point_data, cell_data):
+    """A meshio mesh in single precision and 32-bit indices (a picture needs no more)."""
+    import meshio
+
+    return meshio.Mesh(P.astype(np.float32), [(c, a.astype(np.int32)) for c, a in cells],
+                       point_data={k: v.astype(np.float32) for k, v in point_data.items()},
+                       cell_data={k: [a.astype(np.int32) for a in v]
+                                  for k, v in cell_data.items()})
 
 
 def _evenly(n: int, most: int) -> np.ndarray:
@@ -131,12 +139,7 @@ def write_vtk_series(folder, mech, shapes, t, Q, *, scale: float = 1.0, name: st
             k = picks[n]
             P, cells, pdata, cdata = machine_grid(mech, shapes, Q[k], scale)
             fname = f"{name}_{k:05d}.vtu"
-            mesh = meshio.Mesh(P.astype(np.float32),
-                               [(c, a.astype(np.int32)) for c, a in cells],
-                               point_data={k_: v.astype(np.float32) for k_, v in pdata.items()},
-                               cell_data={k_: [a.astype(np.int32) for a in v]
-                                          for k_, v in cdata.items()})
-            meshio.write(folder / fname, mesh)
+            meshio.write(folder / fname, _mesh32(P, cells, pdata, cdata))
             if n == 0:
                 size = (folder / fname).stat().st_size
                 if max_bytes is not None and size * len(picks) > max_bytes:

@@ -229,6 +229,7 @@ def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
 
     rs = results[rs_spec.analysis]
     path = folder / f"{rs_spec.name}.png"
+    style = picture_style(wf, color=rs_spec.color)
     if rs_spec.case is None and len(rs) > 1 and rs[0].type == "static":
         rs = _with_data(rs, f"render {rs_spec.name!r}", skipped)
         if not rs:
@@ -240,7 +241,7 @@ def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
         render_positions(path, m.mechanism, shapes, Q, [r.case for r in rs], scale=scale,
                          camera=rs_spec.camera, title=rs_spec.title or f"{wf.name}: {rs[0].name}",
                          ghost_q=[rigid_configuration(m.mechanism, q) for q in Q],
-                         style=picture_style(wf, color=rs_spec.color))
+                         style=style)
         return path.name
     r = _pick(rs, rs_spec.case, wf, "outputs", "renders", idx, "case")
     if not has_data(r):
@@ -261,11 +262,11 @@ def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
     if len(Q) == 1:
         when = "" if r.type in ("static", "linearised") else f", t = {r.t[ks[0]]:.3g} s"
         render_machine(path, m.mechanism, shapes, Q[0], scale=scale, camera=rs_spec.camera,
-                       title=f"{title}{when}", ghost_q=ghosts[0], style=picture_style(wf, color=rs_spec.color))
+                       title=f"{title}{when}", ghost_q=ghosts[0], style=style)
     else:
         render_positions(path, m.mechanism, shapes, Q, [f"t = {r.t[k]:.3g} s" for k in ks],
                          scale=scale, camera=rs_spec.camera, title=title,
-                         ghost_q=None if ghosts[0] is None else ghosts, style=picture_style(wf, color=rs_spec.color))
+                         ghost_q=None if ghosts[0] is None else ghosts, style=style)
     return path.name
 
 
