@@ -24,7 +24,6 @@ def run(args: argparse.Namespace) -> int:
 
     res = run_study(args.study, out_root=args.out, workers=max(1, args.workers),
                     scheduler=args.scheduler, cache_dir=args.links)
-    bad = [r for r in res.rows if r["status"] not in ("ok",)]
     print(f"{res.folder.name}: {len(res.rows)} cases ({res.ran} run now, "
           f"{len(res.rows) - res.ran} from the table) -> {res.folder}")
     for r in res.rows:
@@ -41,4 +40,4 @@ def run(args: argparse.Namespace) -> int:
             worst = max(ev.values()) if ev else float("nan")
             print(f"    {mode_text(k)}: largest relative RMS difference "
                   f"{100 * worst:.3g} %")
-    return 1 if any(r["status"] in ("error", "lost") for r in bad) else 0
+    return 1 if any(r["status"] in ("error", "lost") for r in res.rows) else 0

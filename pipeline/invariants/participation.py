@@ -27,6 +27,7 @@ import numpy as np
 
 from pipeline.invariants.reduced_link import FrameModes, ReducedLink
 from pipeline.modes.basis import sign_flips
+from pipeline.modes.clamped import REPEATED_RTOL
 
 #: the six rigid directions of a frame, in the order of the participation columns
 DIRECTIONS = ("tx", "ty", "tz", "rx", "ry", "rz")
@@ -78,7 +79,7 @@ def effective_mass_fractions(link: ReducedLink, frame: str | None = None) -> np.
         return np.where(tot > 0, effective_mass(link, frame) / tot, 0.0)
 
 
-def repeated_clusters(frequencies_hz: np.ndarray, kinds, rtol: float = 1e-3) -> list[list[int]]:
+def repeated_clusters(frequencies_hz: np.ndarray, kinds, rtol: float = REPEATED_RTOL) -> list[list[int]]:
     """Groups of consecutive modes of one kind whose frequencies agree within ``rtol``.
 
     Examples
@@ -99,7 +100,7 @@ def repeated_clusters(frequencies_hz: np.ndarray, kinds, rtol: float = 1e-3) -> 
     return [g for g in out if len(g) > 1]
 
 
-def align_repeated(link: ReducedLink, rtol: float = 1e-3) -> ReducedLink:
+def align_repeated(link: ReducedLink, rtol: float = REPEATED_RTOL) -> ReducedLink:
     """The link with each cluster of repeated frequencies (:func:`repeated_clusters`)
     rotated so that its modes move along the body axes in turn: the first mode of a
     cluster carries all of the cluster's motion along the axis where it has the most,

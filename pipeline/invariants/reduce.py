@@ -128,9 +128,7 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
     if KG is not None:
         link = replace(link, geometric_stiffness=KG, force_geometric_stiffness=KF)
     # repeated frequencies (symmetric sections): modes along the body axes, not mixtures
-    from pipeline.modes.clamped import REPEATED_RTOL
-
-    return align_repeated(link, REPEATED_RTOL)
+    return align_repeated(link)
 
 
 def _assemble(request: LinkRequest, mesh: MeshData) -> FemModel:

@@ -82,24 +82,25 @@ class GeometricStiffening(ForceElement):
         out = np.zeros((len(self.frames), 3))
         if not np.size(self.frame_stiffness):
             return out
-        mech = system.mechanism
-        R = tree.A[mech.link_index(self.link)][:3, :3]
-        where = np.array([marker_pose(system, self.link, f, tree, q)[:3, 3]
-                          for f in self.frames])
+        loads = []
         for element in system.forces:
             if isinstance(element, GeometricStiffening):
                 continue
             try:
-                loads = element.loads(system, tree, q, qd, t)
+                loads += [x for x in element.loads(system, tree, q, qd, t)
+                          if x.link == self.link]
             except NotImplementedError:
                 continue
-            for load in loads:
-                if load.link != self.link:
-                    continue
-                d = np.linalg.norm(where - load.point, axis=1)
-                f = int(np.argmin(d))
-                if d[f] <= 1e-6:
-                    out[f] += R.T @ load.force
+        if not loads:  # the frames' poses only when something acts on the link
+            return out
+        R = tree.A[system.mechanism.link_index(self.link)][:3, :3]
+        where = np.array([marker_pose(system, self.link, f, tree, q)[:3, 3]
+                          for f in self.frames])
+        for load in loads:
+            d = np.linalg.norm(where - load.point, axis=1)
+            f = int(np.argmin(d))
+            if d[f] <= 1e-6:
+                out[f] += R.T @ load.force
         return out
 
     def _force(self, system, tree, q, qd, t):
