@@ -1,4 +1,5 @@
-"""Sample links for the invariants tests: a bar spec writer and a random artifact."""
+"""Sample links for the tests: a solid bar spec writer, a straight beam spec, and a random
+artifact."""
 
 import textwrap
 from pathlib import Path
@@ -58,3 +59,28 @@ def random_link(m=3, n=20, seed=0):
         surface=np.arange(12).reshape(2, 6), mode_shapes=rng.normal(size=(m, n, 3)),
         meta={"input_hash": "abc", "settings": {"n_modes": m}},
     )
+
+
+def beam_spec(name: str, length: float, *, A: float, Iy: float, Iz: float, J: float,
+              element_size: float, E: float = 2.1e11, nu: float = 0.3, rho: float = 7850.0,
+              ends=("root", "tip"), interfaces=("root",), markers=None, modes="{count: 8}",
+              z_axis=None) -> str:
+    """The YAML of a straight beam link along x from 0 to ``length`` (m): one section,
+    ``interfaces`` (names of ``ends``) on the end nodes, the first the reference,
+    ``markers`` {name: x (m)}, ``modes`` as YAML text, optional interface ``z_axis``."""
+    at = dict(zip(ends, (0.0, length), strict=True))
+    axis = "" if z_axis is None else f", z_axis: {list(z_axis)}"
+    geometry = (f"{{type: beam, points: [[0, 0, 0], [{length!r}, 0, 0]], "
+                f"vertex_names: {list(ends)}, element_size: {element_size!r}}}")
+    lines = [f"name: {name}", f"geometry: {geometry}",
+             f"material: {{E: {E!r}, nu: {nu!r}, rho: {rho!r}}}",
+             f"sections: [{{A: {A!r}, Iy: {Iy!r}, Iz: {Iz!r}, J: {J!r}, members: [0]}}]",
+             "interfaces:"]
+    lines += [f"  - {{name: {n}, selector: {{type: nearest, point: [{at[n]!r}, 0, 0]}}{axis}}}"
+              for n in interfaces]
+    lines.append(f"reference: {interfaces[0]}")
+    if markers:
+        lines.append("markers:")
+        lines += [f"  - {{name: {n}, position: [{x!r}, 0, 0]}}" for n, x in markers.items()]
+    lines.append(f"modes: {modes}")
+    return "\n".join(lines) + "\n"

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from link_samples import beam_spec
 
 from pipeline.core.errors import ConfigError
 from pipeline.invariants.participation import (
@@ -31,19 +32,9 @@ EB_ROOTS = np.array([1.875104068711961, 4.694091132974175, 7.854757438237613,
 
 def _bar(folder: Path, iy: float, size: float = 0.05, count: int = 12):
     spec = folder / f"bar_{iy:g}_{size:g}.yaml"
-    spec.write_text(f"""\
-name: bar
-geometry: {{type: beam, points: [[0, 0, 0], [{L}, 0, 0]], vertex_names: [root, tip],
-           element_size: {size}}}
-material: {{E: {E}, nu: 0.3, rho: {RHO}}}
-sections:
-  - {{A: {A}, Iy: {iy}, Iz: {IZ}, J: {2 * IZ}, members: [0]}}
-interfaces:
-  - {{name: root, selector: {{type: nearest, point: [0, 0, 0]}}}}
-  - {{name: tip, selector: {{type: nearest, point: [{L}, 0, 0]}}}}
-reference: root
-modes: {{count: {count}}}
-""")
+    spec.write_text(beam_spec("bar", L, A=A, Iy=iy, Iz=IZ, J=2 * IZ, E=E, rho=RHO,
+                              element_size=size, interfaces=("root", "tip"),
+                              modes=f"{{count: {count}}}"))
     return reduce_spec(load_link_spec(spec), folder, folder / f"links_{size:g}")[0]
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from link_samples import beam_spec
 
 from pipeline.fem.geometric import centrifugal_products, solid_centrifugal_loads
 from pipeline.workflow.link_build import reduce_spec
@@ -30,31 +31,30 @@ def _eb_kg11() -> float:
     return float(w @ (rho_a * (L ** 2 - x ** 2) / 2 * dphi ** 2)) / norm
 
 
-def _reduce(folder, geometry: str):
-    beam = "beam" in geometry
-    sections = (f"sections: [{{A: {B * H!r}, Iy: {B * H ** 3 / 12!r}, "
-                f"Iz: {H * B ** 3 / 12!r}, J: 1.0e-9, members: [0]}}]" if beam else "")
-    selector = "{type: nearest, point: [0, 0, 0]}" if beam else "{type: group, name: end_x0}"
+def _reduce(folder, kind: str):
+    modes = "{count: 4, geometric_stiffening: true}"
     spec = folder / "bar.yaml"
-    spec.write_text(f"""\
+    if kind == "beam":
+        spec.write_text(beam_spec("bar", L, A=B * H, Iy=B * H ** 3 / 12, Iz=H * B ** 3 / 12,
+                                  J=1.0e-9, E=E, rho=RHO, element_size=0.02, ends=("A", "tip"),
+                                  interfaces=("A",), z_axis=(0, 0, 1), modes=modes))
+    else:
+        spec.write_text(f"""\
 name: bar
-geometry: {geometry}
+geometry: {{type: solid, recipe: bar, params: {{L: {L}, b: {B}, h: {H}}}, mesh_size: 0.005,
+           order: 2}}
 material: {{E: {E}, nu: 0.3, rho: {RHO}}}
-{sections}
 interfaces:
-  - {{name: A, selector: {selector}, origin: [0, 0, 0], z_axis: [0, 0, 1]}}
+  - {{name: A, selector: {{type: group, name: end_x0}}, origin: [0, 0, 0], z_axis: [0, 0, 1]}}
 reference: A
-modes: {{count: 4, geometric_stiffening: true}}
+modes: {modes}
 """)
     return reduce_spec(load_link_spec(spec), folder, folder / "links")[0]
 
 
 @pytest.mark.parametrize("kind", ["solid", "beam"])
 def test_centrifugal_stiffness_of_the_first_mode_is_euler_bernoulli(tmp_path, kind):
-    geometry = (f"{{type: solid, recipe: bar, params: {{L: {L}, b: {B}, h: {H}}}, "
-                "mesh_size: 0.005, order: 2}" if kind == "solid" else
-                f"{{type: beam, points: [[0, 0, 0], [{L}, 0, 0]], element_size: 0.02}}")
-    link = _reduce(tmp_path, geometry)
+    link = _reduce(tmp_path, kind)
     tip = np.abs(link.mode_shapes[:, np.argmax(link.nodes[:, 0])])
     first_y = int(np.argmax(tip[:, 1] > 10 * tip[:, 2]))  # first mode bending along y
     KG = np.einsum("c,cab->ab", centrifugal_products([0.0, 0.0, 1.0]),

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from link_samples import beam_spec
 from scipy.integrate import solve_ivp
 
 from pipeline.kinematics.drivers import SpinUp
@@ -35,20 +36,8 @@ A = RHO_A / RHO
 E = EA / A
 IZ = EI / E
 
-BEAM = f"""\
-name: spin_beam
-geometry: {{type: beam, points: [[0, 0, 0], [{L}, 0, 0]], vertex_names: [root, tip],
-           element_size: 0.25}}
-material: {{E: {E!r}, nu: 0.3, rho: {RHO}}}
-sections:
-  - {{A: {A!r}, Iy: {4 * IZ!r}, Iz: {IZ!r}, J: {4 * IZ!r}, members: [0]}}
-interfaces:
-  - {{name: root, selector: {{type: nearest, point: [0, 0, 0]}}}}
-reference: root
-markers:
-  - {{name: tip, position: [{L}, 0, 0]}}
-modes: {{count: 10}}
-"""
+BEAM = beam_spec("spin_beam", L, A=A, Iy=4 * IZ, Iz=IZ, J=4 * IZ, E=E, rho=RHO,
+                 element_size=0.25, markers={"tip": L}, modes="{count: 10}")
 
 WORKFLOW = f"""\
 name: spin_up
@@ -159,19 +148,9 @@ ROD_L, ROD_IZ, ROD_A = 1.0, 1e-9, 1e-4
 ROD_E = 2.1e11
 N_CR = np.pi ** 2 * ROD_E * ROD_IZ / ROD_L ** 2
 
-ROD = f"""\
-name: rod
-geometry: {{type: beam, points: [[0, 0, 0], [{ROD_L}, 0, 0]], vertex_names: [A, B],
-           element_size: 0.025}}
-material: {{E: {ROD_E}, nu: 0.3, rho: {RHO}}}
-sections:
-  - {{A: {ROD_A}, Iy: {4 * ROD_IZ}, Iz: {ROD_IZ}, J: {4 * ROD_IZ}, members: [0]}}
-interfaces:
-  - {{name: A, selector: {{type: nearest, point: [0, 0, 0]}}}}
-  - {{name: B, selector: {{type: nearest, point: [{ROD_L}, 0, 0]}}}}
-reference: A
-modes: {{count: 12}}
-"""
+ROD = beam_spec("rod", ROD_L, A=ROD_A, Iy=4 * ROD_IZ, Iz=ROD_IZ, J=4 * ROD_IZ, E=ROD_E,
+                rho=RHO, element_size=0.025, ends=("A", "B"), interfaces=("A", "B"),
+                modes="{count: 12}")
 
 # pinned at A to ground, pinned at B to a slider free along the rod's axis; the axial
 # load is a point force at B along x (the slider carries none of it)
@@ -232,20 +211,8 @@ def test_without_stiffening_tension_softens_the_rod(tmp_path):
 
 BLADE_L, BLADE_A, BLADE_W = 2.0, 4e-4, 50.0
 
-BLADE = f"""\
-name: blade
-geometry: {{type: beam, points: [[0, 0, 0], [{BLADE_L}, 0, 0]], vertex_names: [root, tip],
-           element_size: 0.05}}
-material: {{E: 2.1e11, nu: 0.3, rho: {RHO}}}
-sections:
-  - {{A: {BLADE_A}, Iy: 2.0e-8, Iz: 1.0e-8, J: 3.0e-8, members: [0]}}
-interfaces:
-  - {{name: root, selector: {{type: nearest, point: [0, 0, 0]}}}}
-reference: root
-markers:
-  - {{name: mid, position: [{BLADE_L / 2}, 0, 0]}}
-modes: {{count: 40}}
-"""
+BLADE = beam_spec("blade", BLADE_L, A=BLADE_A, Iy=2.0e-8, Iz=1.0e-8, J=3.0e-8, rho=RHO,
+                  element_size=0.05, markers={"mid": BLADE_L / 2}, modes="{count: 40}")
 
 BLADE_WORKFLOW = f"""\
 name: blade

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from link_samples import beam_spec
 
 from pipeline.core.errors import ConfigError
 from pipeline.workflow import build_machine, load_workflow
@@ -15,23 +16,8 @@ from pipeline.workflow.series import marker_positions
 
 L, E, RHO, A, IZ, F = 1.0, 2.1e11, 7850.0, 1e-4, 1e-8, 10.0
 
-BAR = f"""\
-name: cantilever
-geometry:
-  type: beam
-  points: [[0, 0, 0], [{L}, 0, 0]]
-  vertex_names: [root, tip]
-  element_size: 0.05
-material: {{E: {E}, nu: 0.3, rho: {RHO}}}
-sections:
-  - {{A: {A}, Iy: {4 * IZ}, Iz: {IZ}, J: {4 * IZ}, members: [0]}}
-interfaces:
-  - {{name: root, selector: {{type: nearest, point: [0, 0, 0]}}}}
-reference: root
-markers:
-  - {{name: tip, position: [{L}, 0, 0]}}
-modes: {{count: 8}}
-"""
+BAR = beam_spec("cantilever", L, A=A, Iy=4 * IZ, Iz=IZ, J=4 * IZ, E=E, rho=RHO,
+                element_size=0.05, markers={"tip": L})
 
 WORKFLOW = """\
 name: pluck

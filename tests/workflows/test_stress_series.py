@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from link_samples import beam_spec
 
 from pipeline.core.errors import ConfigError
 from pipeline.workflow import build_machine, load_workflow
@@ -17,21 +18,9 @@ pytestmark = pytest.mark.gmsh
 
 L, F = 2.0, 1500.0
 
-BAR = f"""\
-name: cantilever
-geometry: {{type: beam, points: [[0, 0, 0], [{L}, 0, 0]], vertex_names: [root, tip],
-           element_size: 0.1}}
-material: {{E: 2.1e11, nu: 0.3, rho: 7850}}
-sections:
-  - {{A: 1.0e-3, Iy: 4.0e-7, Iz: 1.0e-7, J: 4.0e-7, members: [0]}}
-interfaces:
-  - {{name: root, selector: {{type: nearest, point: [0, 0, 0]}}}}
-  - {{name: tip, selector: {{type: nearest, point: [{L}, 0, 0]}}}}
-reference: root
-markers:
-  - {{name: mid, position: [{L / 2}, 0, 0]}}
-modes: {{count: 4, craig_bampton: true}}
-"""
+BAR = beam_spec("cantilever", L, A=1.0e-3, Iy=4.0e-7, Iz=1.0e-7, J=4.0e-7, element_size=0.1,
+                interfaces=("root", "tip"), markers={"mid": L / 2},
+                modes="{count: 4, craig_bampton: true}")
 
 WORKFLOW = f"""\
 name: loaded
