@@ -15,7 +15,7 @@ by the recipe itself when the mesh is built (it knows its own fields).
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -177,6 +177,19 @@ class BentPlate:
     thickness: float
     rounded_ends: bool
     bores: tuple[Bore, ...]
+    lugs: tuple[Lug, ...] = ()
+
+
+@dataclass(frozen=True)
+class Lug:
+    """A tab of a bent plate carrying a pin off the members' centre lines: a strip of
+    ``width`` from ``root`` (inside the plate) to ``center``, with a half-round end there
+    (m)."""
+
+    name: str
+    root: tuple[float, float]
+    center: tuple[float, float]
+    width: float
 
 
 def check_keys(params: Mapping[str, Any], where: str, required: tuple[str, ...] = (),
@@ -278,7 +291,7 @@ def check_plate_bores(bores: tuple[Bore, ...], length: float, width: float, rc: 
 def parse_bent_plate(params: Mapping[str, Any], where: str) -> BentPlate:
     """Validate the ``bent_plate`` parameters (see the recipe's docstring)."""
     check_keys(params, where, required=("points", "width", "thickness"),
-               optional=("point_names", "knee_width", "rounded_ends", "bores"))
+               optional=("point_names", "knee_width", "rounded_ends", "bores", "lugs"))
     pts = validate_array(params["points"], (-1, 2), f"{where}: params.points")
     if pts.shape[0] < 2:
         raise ConfigError(f"{where}: params.points: expected at least 2 points "
@@ -294,9 +307,14 @@ def parse_bent_plate(params: Mapping[str, Any], where: str) -> BentPlate:
     knee = positive(params, "knee_width", where) if "knee_width" in params else width
     if knee < width:
         raise ConfigError(f"{where}: params.knee_width: expected >= width ({width}), got {knee}")
-    arm = BentPlate(pts, names, width, knee, t, bool(params.get("rounded_ends", True)),
-                    parse_plate_bores(params.get("bores", []) or [], where,
-                                      dict(zip(names, pts))))
+    plate = BentPlate(pts, names, width, knee, t, bool(params.get("rounded_ends", True)), ())
+    lugs = _parse_lugs(params.get("lugs", []) or [], plate, where)
+    clash = sorted(set(names) & {g.name for g in lugs})
+    if clash:
+        raise ConfigError(f"{where}: params.lugs: names {clash} are point names too")
+    points = dict(zip(names, pts)) | {g.name: np.array(g.center) for g in lugs}
+    arm = replace(plate, lugs=lugs,
+                  bores=parse_plate_bores(params.get("bores", []) or [], where, points))
     for b in arm.bores:
         if not _bore_in_arm(arm, np.array(b.center), b.radius):
             raise ConfigError(f"{where}: params.bores: bore {b.name!r} (center {b.center}, "
@@ -304,21 +322,59 @@ def parse_bent_plate(params: Mapping[str, Any], where: str) -> BentPlate:
     return arm
 
 
+def _parse_lugs(value: Any, plate: BentPlate, where: str) -> tuple[Lug, ...]:
+    """Lugs ``{name, root: [x, y] | <point name>, center: [x, y], width}``: the root strictly
+    inside the members' outline, the lug longer than its half width."""
+    points = dict(zip(plate.point_names, plate.points))
+    lugs = []
+    for i, e in enumerate(_entries(value, "lugs", where)):
+        fld = f"params.lugs[{i}]"
+        check_keys(e, where, required=("name", "root", "center", "width"), path=fld)
+        name = _name(e, f"lugs[{i}]", where)
+        width = positive(e, "width", where, fld)
+        if isinstance(e["root"], str):
+            if e["root"] not in points:
+                raise ConfigError(f"{where}: {fld}.root: unknown point {e['root']!r}; "
+                                  f"points: {sorted(points)}")
+            root = points[e["root"]]
+        else:
+            root = validate_array(e["root"], (2,), f"{where}: {fld}.root")
+        center = validate_array(e["center"], (2,), f"{where}: {fld}.center")
+        if not _bore_in_arm(plate, root, 0.0):
+            raise ConfigError(f"{where}: {fld}.root: expected a point inside the plate "
+                              f"outline, got {list(map(float, root))}")
+        if np.linalg.norm(center - root) <= width / 2:
+            raise ConfigError(f"{where}: {fld}: expected the centre more than width/2 "
+                              f"({width / 2}) from the root")
+        lugs.append(Lug(name, (float(root[0]), float(root[1])),
+                        (float(center[0]), float(center[1])), width))
+    _unique([g.name for g in lugs], "lugs", where)
+    return tuple(lugs)
+
+
 def _bore_in_arm(arm: BentPlate, c: np.ndarray, r: float) -> bool:
-    """Is the disc (c, r) inside one piece (strip or end/knee disc) of the outline?"""
+    """Is the disc (c, r) inside one piece (strip or end/knee disc, lug strip or end) of
+    the outline?"""
+    for g in arm.lugs:
+        p, q = np.array(g.root), np.array(g.center)
+        if np.linalg.norm(c - q) + r < g.width / 2 or _in_strip(c, r, p, q, g.width):
+            return True
     k = len(arm.points)
     for i, p in enumerate(arm.points):
         end = i in (0, k - 1)
         radius = arm.width / 2 if end else arm.knee_width / 2
         if (not end or arm.rounded_ends) and np.linalg.norm(c - p) + r < radius:
             return True
-    for p, q in zip(arm.points[:-1], arm.points[1:]):
-        d = (q - p) / np.linalg.norm(q - p)
-        local = np.array([(c - p) @ d, d[0] * (c - p)[1] - d[1] * (c - p)[0]])
-        lo, hi = np.array([0.0, -arm.width / 2]), np.array([np.linalg.norm(q - p), arm.width / 2])
-        if _sd_box(local, lo, hi) + r < 0.0:
-            return True
-    return False
+    return any(_in_strip(c, r, p, q, arm.width)
+               for p, q in zip(arm.points[:-1], arm.points[1:]))
+
+
+def _in_strip(c: np.ndarray, r: float, p: np.ndarray, q: np.ndarray, width: float) -> bool:
+    """Is the disc (c, r) strictly inside the strip of ``width`` from p to q?"""
+    d = (q - p) / np.linalg.norm(q - p)
+    local = np.array([(c - p) @ d, d[0] * (c - p)[1] - d[1] * (c - p)[0]])
+    lo, hi = np.array([0.0, -width / 2]), np.array([np.linalg.norm(q - p), width / 2])
+    return _sd_box(local, lo, hi) + r < 0.0
 
 
 def parse_box_bores(value: Any, L: float, b: float, h: float, wall: float, tp: float,

@@ -92,8 +92,11 @@ def bent_plate(gmsh, params: Mapping[str, Any], path: Path | None, where: str) -
     Parameters (``params``): ``points`` (k >= 2, 2) [[x, y], ...] m;
     ``width``, ``thickness`` m; optional ``point_names`` (k names, default
     ``p0``, ``p1``, ...), ``knee_width`` m, ``rounded_ends`` (default true),
-    ``bores``: list of ``{name, radius, at: <point name>}`` or
-    ``{name, radius, center: [x, y]}``.
+    ``bores``: list of ``{name, radius, at: <point or lug name>}`` or
+    ``{name, radius, center: [x, y]}``; ``lugs``: list of ``{name, root, center: [x, y],
+    width}``, a tab of ``width`` from ``root`` (a point name or [x, y] inside the
+    members) to a half-round end at ``center``, for a pin off the centre lines (a
+    cylinder eye).
     Groups: ``bore_<name>`` for every bore.
 
     Examples
@@ -111,19 +114,16 @@ def bent_plate(gmsh, params: Mapping[str, Any], path: Path | None, where: str) -
     arm = parse_bent_plate(params, where)
     occ = gmsh.model.occ
     z0, t = -arm.thickness / 2, arm.thickness
-    pieces = []
-    for p, q in zip(arm.points[:-1], arm.points[1:]):
-        d = q - p
-        rect = occ.addRectangle(0.0, -arm.width / 2, z0, float(np.hypot(*d)), arm.width)
-        occ.rotate([(2, rect)], 0, 0, 0, 0, 0, 1, float(np.arctan2(d[1], d[0])))
-        occ.translate([(2, rect)], float(p[0]), float(p[1]), 0.0)
-        pieces.append((2, rect))
+    pieces = [_strip(occ, p, q, arm.width, z0) for p, q in zip(arm.points[:-1], arm.points[1:])]
     for i, p in enumerate(arm.points):
         end = i in (0, len(arm.points) - 1)
         if end and not arm.rounded_ends:
             continue
         r = arm.width / 2 if end else arm.knee_width / 2
         pieces.append((2, occ.addDisk(float(p[0]), float(p[1]), z0, r, r)))
+    for g in arm.lugs:
+        pieces.append(_strip(occ, np.array(g.root), np.array(g.center), g.width, z0))
+        pieces.append((2, occ.addDisk(*g.center, z0, g.width / 2, g.width / 2)))
     outline, _ = occ.fuse(pieces[:1], pieces[1:])
     plate = [e for e in occ.extrude(outline, 0, 0, t) if e[0] == 3]
     return _cut_z_bores(gmsh, plate, arm.bores, t, where)
@@ -236,6 +236,15 @@ def _cut_z_bores(gmsh, plate: list[tuple[int, int]], bores, t: float, where: str
     return {f"bore_{b.name}": _cylinder_faces(
         gmsh, [b.center[0] - b.radius, b.center[1] - b.radius, -t / 2],
         [b.center[0] + b.radius, b.center[1] + b.radius, t / 2], b.radius, where) for b in bores}
+
+
+def _strip(occ, p: np.ndarray, q: np.ndarray, width: float, z0: float) -> tuple[int, int]:
+    """Rectangle of ``width`` centred on the segment p -> q (m) in the plane z = z0."""
+    d = q - p
+    rect = occ.addRectangle(0.0, -width / 2, z0, float(np.hypot(*d)), width)
+    occ.rotate([(2, rect)], 0, 0, 0, 0, 0, 1, float(np.arctan2(d[1], d[0])))
+    occ.translate([(2, rect)], float(p[0]), float(p[1]), 0.0)
+    return (2, rect)
 
 
 def _pad(gmsh, size: float) -> float:

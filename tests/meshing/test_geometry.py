@@ -92,6 +92,29 @@ def test_bent_plate_params():
         parse_bent_plate({**ARM, "colour": "yellow"}, "a")
 
 
+def test_bent_plate_lugs_carry_bores_off_the_centre_lines():
+    eye = {"name": "eye", "root": "knee", "center": [1.2, -0.55], "width": 0.1}
+    arm = parse_bent_plate({**ARM, "lugs": [eye], "bores": [
+        {"name": "eye", "at": "eye", "radius": 0.02}]}, "a")
+    assert arm.lugs[0].root == (1.2, -0.25) and arm.bores[0].center == (1.2, -0.55)
+    # the same bore without the lug would be outside the plate
+    with pytest.raises(ConfigError, match=r"bore 'eye' .* not inside"):
+        parse_bent_plate({**ARM, "bores": [{"name": "eye", "center": [1.2, -0.55],
+                                            "radius": 0.02}]}, "a")
+    # a bore wider than the lug's end is not inside it either
+    with pytest.raises(ConfigError, match=r"bore 'eye' .* not inside"):
+        parse_bent_plate({**ARM, "lugs": [eye], "bores": [
+            {"name": "eye", "at": "eye", "radius": 0.06}]}, "a")
+    with pytest.raises(ConfigError, match=r"params.lugs\[0\].root: expected a point inside"):
+        parse_bent_plate({**ARM, "lugs": [{**eye, "root": [0.6, 0.3]}]}, "a")
+    with pytest.raises(ConfigError, match=r"params.lugs\[0\].root: unknown point 'elbow'"):
+        parse_bent_plate({**ARM, "lugs": [{**eye, "root": "elbow"}]}, "a")
+    with pytest.raises(ConfigError, match=r"params.lugs: names \['knee'\] are point names"):
+        parse_bent_plate({**ARM, "lugs": [{**eye, "name": "knee"}]}, "a")
+    with pytest.raises(ConfigError, match=r"params.lugs\[0\]: expected the centre more than"):
+        parse_bent_plate({**ARM, "lugs": [{**eye, "center": [1.2, -0.28]}]}, "a")
+
+
 def test_box_bores_must_sit_in_flat_wall():
     ok = parse_box_bores([{"name": "p", "x": 0.05, "radius": 0.02, "axis": "y"}],
                          1.0, 0.1, 0.15, 0.008, 0.0, "b")
