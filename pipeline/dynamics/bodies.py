@@ -32,20 +32,38 @@ def _plane(plane: str) -> tuple[int, tuple[int, int]]:
     return PLANES[plane]
 
 
-def in_plane_modes(reduced, plane: str, tol: float = 1e-2) -> tuple[int, ...]:
-    """Indices of the modes whose frames move in ``plane`` of the body frame ("xy", "yz" or
-    "xz"): out-of-plane translation and rotations of every frame below ``tol`` times the
-    in-plane ones. Planar loops need none of the others (the DAE formulation also runs with
-    them: the loops then constrain them)."""
+def in_plane_modes(reduced, plane: str, tol: float = 1e-2, energy_tol: float = 1e-3
+                   ) -> tuple[int, ...]:
+    """Indices of the modes that move in ``plane`` of the body frame ("xy", "yz" or "xz").
+
+    A mode is kept when either test says so:
+
+    * frames: out-of-plane translation and rotations of every frame at most ``tol`` times
+      the in-plane ones (the joints see an in-plane mode). A body symmetric about the
+      plane has modes symmetric about it whose walls breathe across it (a box's panel
+      modes): much of their energy is out of the plane, none of their frames' motion.
+    * energy: for a mode whose kinetic energy is mostly translation of its mass (every
+      solid mode; a beam's bending and axial modes, not its torsion), the share of that
+      energy out of the plane, ``C''_aa[t, t] / tr C''_aa`` (the mass invariant), is at
+      most ``energy_tol``. On a mesh that is not symmetric about the plane (one element
+      through a plate), an in-plane mode next to an out-of-plane one takes a few per cent
+      of its *frame* motion from it while keeping 1e-5 of its energy out of the plane.
+
+    Planar loops need none of the others (the DAE formulation also runs with them: the
+    loops then constrain them)."""
     t_out, r_out = _plane(plane)
     t_in = [a for a in range(3) if a != t_out]
     r_in = next(a for a in range(3) if a not in r_out)
+    Cpp = np.asarray(reduced.Cpp, dtype=float)
+    modal_mass = np.diag(np.asarray(reduced.modal_mass, dtype=float))
     keep = []
     for a in range(reduced.n_modes):
+        P = Cpp[a, a, :3, :3]
+        translational = np.trace(P) >= 0.5 * modal_mass[a]
         out = max(max(abs(f.phi[a, t_out]), *np.abs(f.psi[a, list(r_out)]))
                   for f in reduced.frames)
         inp = max(max(*np.abs(f.phi[a, t_in]), abs(f.psi[a, r_in])) for f in reduced.frames)
-        if out <= tol * inp:
+        if out <= tol * inp or (translational and P[t_out, t_out] <= energy_tol * np.trace(P)):
             keep.append(a)
     return tuple(keep)
 

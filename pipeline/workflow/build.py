@@ -123,8 +123,8 @@ def _link_spec(wf: Workflow, name: str, entry) -> tuple[LinkSpec, Path]:
 def kept_modes(reduced, modes, plane: str | None, tol: float = 1e-2) -> tuple[int, ...]:
     """Indices of the kept modes: a count (lowest n), indices, or a rule (an object with
     ``f_max``, ``effective_mass``, ``directions``, ``interface``, ``count``, see
-    :class:`pipeline.workflow.schema.ModeSelection`), optionally only those whose frames
-    move in ``plane`` (out-of-plane motion below ``tol`` x in-plane)."""
+    :class:`pipeline.workflow.schema.ModeSelection`), optionally only those that move in
+    ``plane`` (:func:`pipeline.dynamics.bodies.in_plane_modes`, frame test at ``tol``)."""
     candidates = list(range(reduced.n_modes)) if plane is None else list(
         in_plane_modes(reduced, plane, tol))
     if modes is None:
