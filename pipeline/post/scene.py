@@ -48,6 +48,14 @@ def joint_points(mech, q, poses=None) -> tuple[np.ndarray, np.ndarray]:
     return P, grounded
 
 
+def drawn_joints(mech, shapes=None) -> np.ndarray:
+    """(J,) True for the joints drawn with ``shapes`` (LinkShapes by name; None: all): those
+    of a drawn link."""
+    drawn = None if shapes is None else {s.link for s in shapes.values()}
+    return np.array([drawn is None or bool({j.parent, j.child} & drawn)
+                     for j in mech.joints], bool)
+
+
 @dataclass(frozen=True)
 class Picture:
     """A still written to ``path``; ``labels``: (text, (x0, y0, x1, y1)) pixel box of each
@@ -160,9 +168,12 @@ class _Drawn:
 class _Pivots:
     """Joints as dots; joints to ground larger and dark red."""
 
-    def __init__(self, plotter, pv, mech, q, style):
+    def __init__(self, plotter, pv, mech, q, style, shapes=None):
+        """The joints of the links drawn (``shapes``: their LinkShapes; None: every joint)."""
         self.mech = mech
         P, grounded = joint_points(mech, q)
+        self.shown = drawn_joints(mech, shapes)
+        P, grounded = P[self.shown], grounded[self.shown]
         self.grounded = grounded
         self.free = pv.PolyData(P[~grounded]) if (~grounded).any() else None
         self.fixed = pv.PolyData(P[grounded]) if grounded.any() else None
@@ -174,7 +185,7 @@ class _Pivots:
                              render_points_as_spheres=True)
 
     def update(self, q, poses=None):
-        P, _ = joint_points(self.mech, q, poses)
+        P = joint_points(self.mech, q, poses)[0][self.shown]
         if self.free is not None:
             self.free.points = P[~self.grounded]
         if self.fixed is not None:
@@ -434,7 +445,7 @@ def render_positions(path, mech, shapes, Q, labels=None, *, scale: float = 1.0,
         for q in Q:
             _Drawn(plotter, pv, mech, shapes, q, scale, clim, style,
                    opacity=1.0 if len(Q) == 1 else 0.9)
-            _Pivots(plotter, pv, mech, q, style)
+            _Pivots(plotter, pv, mech, q, style, shapes)
         bounds = scene_bounds(mech, shapes, Q, scale)
         extra = _furniture(plotter, pv, bounds, camera, style)
         _bar(plotter, scale, clim, style.color)
@@ -475,7 +486,7 @@ def animate_machine(path, mech, shapes, t, Q, *, scale: float = 1.0, fps: int = 
     try:
         plotter.set_background("white")
         drawn = _Drawn(plotter, pv, mech, shapes, Q[picks[0]], scale, clim, style)
-        pivots = _Pivots(plotter, pv, mech, Q[picks[0]], style)
+        pivots = _Pivots(plotter, pv, mech, Q[picks[0]], style, shapes)
         extra = _furniture(plotter, pv, bounds, camera, style)
         _bar(plotter, scale, clim, style.color)
         clock = _text_actor(plotter.renderer, "t = 0 s", style.font_px, box=False)

@@ -160,6 +160,12 @@ def check_references(wf: Workflow) -> None:
                 raise wf.error("outputs", kind, i, key,
                                msg=f"expected case labels of analysis {o.analysis!r} among "
                                    f"{labels}, got {bad}")
+    for kind in ("renders", "animations"):
+        for i, o in enumerate(getattr(spec.outputs, kind)):
+            bad = [n for n in o.links or () if n not in spec.links]
+            if bad:
+                raise wf.error("outputs", kind, i, "links",
+                               msg=f"expected links among {sorted(spec.links)}, got {bad}")
     for a in spec.analyses:  # each case's overrides give a valid workflow (the schema)
         for c in a.cases:
             wf.for_case(c.set, c.label)

@@ -153,14 +153,17 @@ def _plot(folder: Path, wf, machines, results, idx: int, p, skipped) -> str | No
     return path.name
 
 
-def machine_shapes(m) -> dict:
-    """LinkShape per link of a machine: meshes of reduced links, boxes/cylinders/sticks else."""
+def machine_shapes(m, links=None) -> dict:
+    """LinkShape per link of a machine (only ``links``, if given): meshes of reduced links,
+    boxes/cylinders/sticks else."""
     from pipeline.post import shapes as sh
     from pipeline.post.primitives import box_surface, cylinder_surface
 
     mech = m.mechanism
     out = {}
     for name, entry in m.workflow.spec.links.items():
+        if links is not None and name not in links:
+            continue
         link = mech.links[mech.link_index(name)]
         if name in m.parts:
             out[name] = sh.shape_from_reduced(m.parts[name].reduced, list(m.parts[name].modes),
@@ -235,7 +238,7 @@ def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
         if not rs:
             return None
         m = machines[rs[0].case]
-        shapes = machine_shapes(m)
+        shapes = machine_shapes(m, rs_spec.links)
         Q = [r.q[-1] for r in rs]
         scale = _scale(rs_spec.scale) or _auto_scale(m, shapes, Q)
         render_positions(path, m.mechanism, shapes, Q, [r.case for r in rs], scale=scale,
@@ -248,7 +251,7 @@ def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
         skipped.append(f"render {rs_spec.name!r}: {_why(r)}")
         return None
     m = machines[r.case]
-    shapes = machine_shapes(m)
+    shapes = machine_shapes(m, rs_spec.links)
     if rs_spec.at:
         ks = [int(np.argmin(np.abs(r.t - t))) for t in rs_spec.at]
     else:
@@ -278,7 +281,7 @@ def _animate(folder, wf, machines, results, idx, an, skipped) -> str | None:
         skipped.append(f"animation {an.name!r}: {_why(r)}")
         return None
     m = machines[r.case]
-    shapes = machine_shapes(m)
+    shapes = machine_shapes(m, an.links)
     scale = _scale(an.scale) or _auto_scale(m, shapes, r.q[:: max(1, len(r.t) // 10)])
     path = folder / f"{an.name}.{an.format}"
     animate_machine(path, m.mechanism, shapes, r.t, r.q, scale=scale, fps=an.fps,

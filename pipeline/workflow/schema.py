@@ -385,6 +385,8 @@ class RenderSpec(Strict):
     color: Literal["displacement", "von_mises"] = Field(
         "displacement", description="colour flexible links by elastic displacement (mm) or "
                                     "von Mises stress (MPa, solid links)")
+    links: list[Name] | None = Field(None, description="draw only these links (default "
+                                                       "all): a part on its own")
 
 
 class AnimationSpec(Strict):
@@ -397,6 +399,7 @@ class AnimationSpec(Strict):
     fps: int = Field(15, ge=1, le=60)
     max_frames: int = Field(60, ge=2, le=600)
     color: Literal["displacement", "von_mises"] = "displacement"
+    links: list[Name] | None = None
 
 
 class ConvergenceSpec(Strict):

@@ -36,6 +36,15 @@ def _machine():
     return mech, shapes
 
 
+def test_a_picture_of_some_links_draws_their_joints_only():
+    from pipeline.post.scene import drawn_joints
+
+    mech, shapes = _machine()
+    assert drawn_joints(mech).tolist() == [True, True]
+    assert drawn_joints(mech, shapes).tolist() == [True, True]
+    assert drawn_joints(mech, {"b": shapes["b"]}).tolist() == [False, True]  # j2: a - b
+
+
 def _rz(a):
     c, s = np.cos(a), np.sin(a)
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])

@@ -473,6 +473,10 @@ forces:
     ("    - {name: rocker, analysis: turn, series: [q:JD.theta]}",
      ("    - {name: rocker, analysis: turn, series: [q:JD.theta]}\n"
       "  renders:\n    - {name: pic, analysis: turn, case: sloww}"), "outputs.renders[0].case"),
+    ("    - {name: rocker, analysis: turn, series: [q:JD.theta]}",
+     ("    - {name: rocker, analysis: turn, series: [q:JD.theta]}\n"
+      "  renders:\n    - {name: pic, analysis: turn, links: [couplr]}"),
+     "outputs.renders[0].links"),
 ])
 def test_case_names_in_outputs_are_checked_at_load(tmp_path, old, new, where):
     path = _write(tmp_path, FOURBAR.replace(old, new))
