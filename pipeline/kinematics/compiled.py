@@ -51,7 +51,9 @@ class CompiledMechanism:
     the derivative products are skipped there); loop_depends (K, n) the same for the
     closure rows of each loop; fast (S,) the closed form of a rigid step with at most one
     motion (-1 none, 0 rotation, 1 translation, 2 fixed; Step.fast), with its constant
-    matrices fastC (S, 3, 4, 4) = C0, C1, C2 and coordinate fastq (S,).
+    matrices fastC (S, 3, 4, 4) = C0, C1, C2 and coordinate fastq (S,); second (S,)
+    whether the step's frame has second-order translation, hess (S, MM, MM, 3) its
+    d2r/deta_a deta_b (Frame.hess; a (1, 1, 1, 3) dummy when no frame has one).
     """
 
     n: int
@@ -76,13 +78,15 @@ class CompiledMechanism:
     fast: np.ndarray
     fastC: np.ndarray
     fastq: np.ndarray
+    second: np.ndarray
+    hess: np.ndarray
 
     def arrays(self) -> tuple:
         """The arrays in the order of the kernels' arguments (after q, qd, rates)."""
         return (self.n_links, self.root, self.frm, self.n_modes, self.eta, self.pose, self.dS,
                 self.n_motions, self.kind, self.gen, self.gen2, self.qi, self.tail, self.order,
                 self.slot, self.loops, self.depends, self.loop_depends, self.fast, self.fastC,
-                self.fastq)
+                self.fastq, self.second, self.hess)
 
 
 @dataclass(frozen=True)
@@ -115,12 +119,16 @@ def compile_mechanism(mech) -> CompiledMechanism:
     gen = np.zeros((S, KK, 4, 4))
     qi = np.zeros((S, KK), dtype=np.int64)
     tail = np.tile(np.eye(4), (S, 1, 1))
+    second = np.array([st.frame.hess is not None for st in steps], dtype=np.bool_).reshape(S)
+    hess = np.zeros((S, MM, MM, 3) if second.any() else (1, 1, 1, 3))
     for s, st in enumerate(steps):
         m = st.frame.n_modes
         n_modes[s] = m
         eta[s, :m] = st.eta_idx
         pose[s] = st.frame.pose
         dS[s, :m] = st.frame.dshape
+        if second[s]:
+            hess[s, :m, :m] = st.frame.hess
         if st.motion is not None:
             k = st.motion.n
             n_motions[s] = k
@@ -155,7 +163,7 @@ def compile_mechanism(mech) -> CompiledMechanism:
             fastq[s] = max(st.fast[4], 0)
     return CompiledMechanism(mech.n, len(mech.links), int(mech.placement[0]), frm, n_modes, eta,
                              pose, dS, n_motions, kind, gen, gen @ gen, qi, tail, order, slot,
-                             loops, depends, loop_depends, fast, fastC, fastq)
+                             loops, depends, loop_depends, fast, fastC, fastq, second, hess)
 
 
 def evaluate(cm: CompiledMechanism, q: np.ndarray, qd: np.ndarray | None = None) -> Evaluation:
@@ -191,9 +199,10 @@ def _mm_add(X, Y, c, out):
 
 @njit(cache=True)
 def _step(s, q, qd, rates, n_modes, eta, pose, dS, n_motions, kind, gen, gen2, qi, tail,
-          M, dMe, dMx, Md, Mdd, F, P, T, Sm, Sd, U, V, X, Xd, Xdd, Fd, Fdd, W):
+          second, hess, M, dMe, dMx, Md, Mdd, F, P, T, Sm, Sd, U, V, X, Xd, Xdd, Fd, Fdd, W,
+          Sdd, hv):
     """Local matrix of step s and its derivatives (see the module docstring); F, P, T
-    ((KK + 1, 4, 4)) and the 4x4 arrays after them are work space."""
+    ((KK + 1, 4, 4)), the 4x4 arrays after them and hv (MM, 3) are work space."""
     m, k = n_modes[s], n_motions[s]
     Sm[:] = pose[s]
     Sd[:] = 0.0
@@ -204,6 +213,23 @@ def _step(s, q, qd, rates, n_modes, eta, pose, dS, n_motions, kind, gen, gen2, q
             for j in range(4):
                 Sm[i, j] += e * dS[s, a, i, j]
                 Sd[i, j] += ed * dS[s, a, i, j]
+    if second[s]:  # origin column: + eta^T H eta / 2; dS_a + H_ab eta_b; S'' = eta'^T H eta'
+        Sdd[:] = 0.0
+        for a in range(m):
+            for i in range(3):
+                hv[a, i] = 0.0
+            for b in range(m):
+                e = q[eta[s, b]]
+                for i in range(3):
+                    hv[a, i] += hess[s, a, b, i] * e
+        for a in range(m):
+            e = q[eta[s, a]]
+            ed = qd[eta[s, a]]
+            for i in range(3):
+                Sm[i, 3] += 0.5 * e * hv[a, i]
+                Sd[i, 3] += ed * hv[a, i]
+                for b in range(m):
+                    Sdd[i, 3] += ed * qd[eta[s, b]] * hess[s, a, b, i]
     for i in range(k):
         x = q[qi[s, i]]
         if kind[s, i] == 0:
@@ -226,6 +252,10 @@ def _step(s, q, qd, rates, n_modes, eta, pose, dS, n_motions, kind, gen, gen2, q
     _mm(Sm, T[0], M)
     for a in range(m):
         _mm(dS[s, a], T[0], dMe[a])
+        if second[s]:
+            for i in range(3):
+                for c in range(4):
+                    dMe[a, i, c] += hv[a, i] * T[0, 3, c]
     for i in range(k):
         _mm(P[i + 1], gen[s, i], U)
         _mm(U, T[i + 1], V)
@@ -263,6 +293,8 @@ def _step(s, q, qd, rates, n_modes, eta, pose, dS, n_motions, kind, gen, gen2, q
     W[:] = 0.0
     _mm_add(Sd, Xd, 2.0, W)
     _mm_add(Sm, Xdd, 1.0, W)
+    if second[s]:
+        _mm_add(Sdd, X, 1.0, W)
     _mm(W, tail[s], Mdd)
 
 
@@ -341,7 +373,7 @@ def _fast_step(s, q, qd, rates, fast, fastC, fastq, M, dM, Md, Mdd):
 
 @njit(cache=True)
 def _kernel(q, qd, rates, L, root, frm, n_modes, eta, pose, dS, n_motions, kind, gen, gen2, qi,
-            tail, order, slot, loops, depends, loop_depends, fast, fastC, fastq):
+            tail, order, slot, loops, depends, loop_depends, fast, fastC, fastq, second, hess):
     n = q.shape[0]
     S = frm.shape[0]
     MM = dS.shape[1]
@@ -355,13 +387,14 @@ def _kernel(q, qd, rates, L, root, frm, n_modes, eta, pose, dS, n_motions, kind,
     Pw = np.zeros((KK + 1, 4, 4))
     Tw = np.zeros((KK + 1, 4, 4))
     w4 = np.zeros((11, 4, 4))
+    hv = np.zeros((MM, 3))
     for s in range(S):
         if fast[s] >= 0:
             _fast_step(s, q, qd, rates, fast, fastC, fastq, Ms[s], dMx[s, 0], Md[s], Mdd[s])
             continue
         _step(s, q, qd, rates, n_modes, eta, pose, dS, n_motions, kind, gen, gen2, qi, tail,
-              Ms[s], dMe[s], dMx[s], Md[s], Mdd[s], F, Pw, Tw, w4[0], w4[1], w4[2], w4[3],
-              w4[4], w4[5], w4[6], w4[7], w4[8], w4[9])
+              second, hess, Ms[s], dMe[s], dMx[s], Md[s], Mdd[s], F, Pw, Tw, w4[0], w4[1],
+              w4[2], w4[3], w4[4], w4[5], w4[6], w4[7], w4[8], w4[9], w4[10], hv)
     A = np.zeros((L, 4, 4))
     dA = np.zeros((L, n, 4, 4))
     Ad = np.zeros((L, 4, 4))

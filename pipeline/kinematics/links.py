@@ -54,12 +54,19 @@ class Frame:
     pose : (4, 4) undeformed pose S0 in the body frame (rotation orthonormal, m).
     phi : (m, 3) modal translations of the frame origin, m per unit eta.
     psi : (m, 3) modal small rotations of the frame, rad per unit eta.
+    hess : (m, m, 3) second derivatives of the origin's translation, d2r/deta_a deta_b, m
+        per unit eta^2 (symmetric in a, b), or None (first order). A link loaded along
+        its length shortens its chord as it bends: the second-order translation of a
+        frame is what makes the forces acting there -- applied or transmitted by a joint
+        -- stiffen (tension) or soften (compression) the modes, conservatively
+        (:func:`pipeline.invariants.stiffening.frame_hessians`).
     """
 
     name: str
     pose: np.ndarray
     phi: np.ndarray
     psi: np.ndarray
+    hess: np.ndarray | None = None
     dshape: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
@@ -70,6 +77,14 @@ class Frame:
         for arr in (self.pose, self.phi, self.psi, dS):
             arr.setflags(write=False)
         object.__setattr__(self, "dshape", dS)
+        if self.hess is not None:
+            H = np.array(self.hess, dtype=float)
+            if H.shape != (self.n_modes, self.n_modes, 3):
+                raise ConfigError(f"frame '{self.name}': hess: expected shape "
+                                  f"{(self.n_modes, self.n_modes, 3)}, got {H.shape}")
+            H = 0.5 * (H + H.transpose(1, 0, 2))
+            H.setflags(write=False)
+            object.__setattr__(self, "hess", H if np.any(H) else None)
 
     @property
     def n_modes(self) -> int:
@@ -85,11 +100,28 @@ class Frame:
         if self.n_modes == 0:
             return self.pose
         m = self.n_modes  # a (m,) @ (m, 16) product: tensordot's overhead dominates at 4x4
-        return self.pose + (np.asarray(eta, dtype=float) @ self.dshape.reshape(m, 16)).reshape(4, 4)
+        eta = np.asarray(eta, dtype=float)
+        S = self.pose + (eta @ self.dshape.reshape(m, 16)).reshape(4, 4)
+        if self.hess is not None:
+            S[:3, 3] += 0.5 * np.einsum("a,abi,b->i", eta, self.hess, eta)
+        return S
 
-    def shape_derivatives(self) -> np.ndarray:
-        """(m, 4, 4) constant dS/deta_a."""
-        return self.dshape
+    def shape_derivatives(self, eta=None) -> np.ndarray:
+        """(m, 4, 4) dS/deta_a at eta (constant for a first-order frame)."""
+        if self.hess is None or eta is None:
+            return self.dshape
+        dS = self.dshape.copy()
+        dS[:, :3, 3] += np.einsum("abi,b->ai", self.hess, np.asarray(eta, dtype=float))
+        return dS
+
+    def shape_acceleration(self, eta_d) -> np.ndarray | None:
+        """(4, 4) S'' at eta'' = 0: the second-order translation's eta'^T H eta' (None for a
+        first-order frame)."""
+        if self.hess is None:
+            return None
+        S = np.zeros((4, 4))
+        S[:3, 3] = np.einsum("a,abi,b->i", eta_d, self.hess, eta_d)
+        return S
 
 
 @dataclass(frozen=True)
@@ -133,12 +165,14 @@ def _pose(value, where: str) -> np.ndarray:
     return H
 
 
-def _make_frame(link: str, name: str, pose, phi, psi, m: int) -> Frame:
+def _make_frame(link: str, name: str, pose, phi, psi, m: int, hess=None) -> Frame:
     where = f"link '{link}': frame '{name}'"
     H = _pose(pose, f"{where}: pose")
     phi = validate_array(np.zeros((m, 3)) if phi is None else phi, (m, 3), f"{where}: phi").copy()
     psi = validate_array(np.zeros((m, 3)) if psi is None else psi, (m, 3), f"{where}: psi").copy()
-    return Frame(name, H, phi, psi)
+    if hess is not None:
+        hess = validate_array(hess, (m, m, 3), f"{where}: hess").copy()
+    return Frame(name, H, phi, psi, hess)
 
 
 def _with_body(link: str, frames: list[Frame], m: int) -> tuple[Frame, ...]:
@@ -154,7 +188,8 @@ def rigid_link(name: str, frames: Mapping[str, np.ndarray] | None = None) -> Lin
 
 
 def flexible_link(name: str, frames: Mapping[str, tuple]) -> Link:
-    """Flexible link with frames ``{name: (pose (4, 4), phi (m, 3), psi (m, 3))}``.
+    """Flexible link with frames ``{name: (pose (4, 4), phi (m, 3), psi (m, 3)[, hess
+    (m, m, 3)])}``.
 
     All frames must have the same number of modes m >= 1 (the body frame has
     phi = psi = 0 by construction).
@@ -164,12 +199,14 @@ def flexible_link(name: str, frames: Mapping[str, tuple]) -> Link:
         raise ConfigError(f"link '{name}': frames: expected phi/psi of shape (m, 3) with the "
                           f"same m >= 1 for every frame, got m in {sorted(ms)}")
     m = ms.pop()
-    fr = [_make_frame(name, k, v[0], v[1], v[2], m) for k, v in frames.items()]
+    fr = [_make_frame(name, k, v[0], v[1], v[2], m, v[3] if len(v) > 3 else None)
+          for k, v in frames.items()]
     return Link(name, _with_body(name, fr, m), m)
 
 
 def link_from_frames(name: str, frames: Iterable) -> Link:
-    """Link from objects with ``name``, ``pose``, ``phi``, ``psi`` (e.g. a reduced link's frames).
+    """Link from objects with ``name``, ``pose``, ``phi``, ``psi`` and optionally ``hess``
+    (e.g. a reduced link's frames).
 
     With zero modes the link is rigid.
     """
@@ -177,5 +214,6 @@ def link_from_frames(name: str, frames: Iterable) -> Link:
     if not frames:
         return rigid_link(name)
     m = int(np.shape(frames[0].phi)[0])
-    fr = [_make_frame(name, f.name, f.pose, f.phi, f.psi, m) for f in frames]
+    fr = [_make_frame(name, f.name, f.pose, f.phi, f.psi, m, getattr(f, "hess", None))
+          for f in frames]
     return Link(name, _with_body(name, fr, m), m)

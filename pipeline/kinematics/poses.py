@@ -7,7 +7,9 @@ A_to = A_frm M(q), M = S(eta_frm) Phi(q_j) tail,
     A_to'  = A_frm' M + A_frm M',
     A_to'' = A_frm'' M + 2 A_frm' M' + A_frm M''     (q'' = 0 part),
 
-where S is linear in eta (dS/deta constant, S'' = 0 at eta'' = 0) and the
+where S is linear in eta (dS/deta constant, S'' = 0 at eta'' = 0) -- or, for a
+frame with second-order translation, S = S_0 + eta_a dS_a + eta_a eta_b H_ab / 2 in its
+origin column (then dS/deta_a = dS_a + H_ab eta_b and S'' = eta'_a eta'_b H_ab) -- and the
 joint supplies Phi, dPhi/dq, Phi' and Phi''|q''=0. The full acceleration is
 A'' = sum_i dA/dq_i q''_i + A''|q''=0, the form the dynamics layer needs
 (R''_g|q''=0 of DESIGN §4).
@@ -106,6 +108,7 @@ def step_local(step: Step, q: np.ndarray, qd: np.ndarray | None = None, need_d: 
     fr = step.frame
     eta = q[step.eta_idx] if fr.n_modes else None
     S = fr.shape(eta) if fr.n_modes else fr.pose
+    dS = fr.shape_derivatives(eta) if fr.n_modes else None
     tail = step.tail
     if step.motion is not None:
         G, dG, Gd, Gdd = step.motion.evaluate(q[step.q_idx], None if qd is None else qd[step.q_idx])
@@ -117,7 +120,7 @@ def step_local(step: Step, q: np.ndarray, qd: np.ndarray | None = None, need_d: 
     if need_d:
         parts = []
         if fr.n_modes:
-            parts.append(fr.dshape @ G)
+            parts.append(dS @ G)
         if dG is not None:
             parts.append(S @ dG)
         dM = np.concatenate(parts) if len(parts) > 1 else parts[0] if parts else np.zeros((0, 4, 4))
@@ -125,9 +128,12 @@ def step_local(step: Step, q: np.ndarray, qd: np.ndarray | None = None, need_d: 
             dM = dM @ tail
     if qd is not None:
         if fr.n_modes:
-            Sd = (qd[step.eta_idx] @ fr.dshape.reshape(fr.n_modes, 16)).reshape(4, 4)
+            Sd = (qd[step.eta_idx] @ dS.reshape(fr.n_modes, 16)).reshape(4, 4)
             Md = Sd @ G + S @ Gd
             Mdd = 2.0 * Sd @ Gd + S @ Gdd
+            Sdd = fr.shape_acceleration(qd[step.eta_idx])
+            if Sdd is not None:  # a second-order frame: S'' = eta'^T H eta'
+                Mdd = Mdd + Sdd @ G
         else:
             Md, Mdd = S @ Gd, S @ Gdd
         if tail is not None:

@@ -1,6 +1,7 @@
 """Tree poses, closure Jacobian and gamma vs central finite differences on a
-random spatial mechanism with every joint type, flexible links, joints crossed
-child-to-parent and three loops."""
+random spatial mechanism with every joint type, flexible links (frames of first and of
+second order in the modal coordinates), joints crossed child-to-parent and three
+loops."""
 
 from __future__ import annotations
 
@@ -27,20 +28,24 @@ def _pose(rng):
     return homogeneous(exp_so3(rng.normal(size=3)), rng.normal(size=3))
 
 
-def _flex(rng, m, name, frames):
+def _flex(rng, m, name, frames, second=False):
+    """Random frames; ``second``: with second-order translations (Frame.hess) too."""
     return flexible_link(name, {f: (_pose(rng), 0.3 * rng.normal(size=(m, 3)),
-                                    0.3 * rng.normal(size=(m, 3))) for f in frames})
+                                    0.3 * rng.normal(size=(m, 3)),
+                                    0.3 * rng.normal(size=(m, m, 3)) if second else None)
+                                for f in frames})
 
 
-@pytest.fixture(scope="module")
-def mech():
+@pytest.fixture(scope="module", params=[False, True], ids=["first-order", "second-order"])
+def mech(request):
     rng = np.random.default_rng(11)
+    second = request.param
     links = [
         rigid_link("ground", {f: _pose(rng) for f in ("g1", "g2", "g3")}),
         rigid_link("L1", {"a": _pose(rng), "c": _pose(rng)}),
-        _flex(rng, 2, "L2", ("f1", "f2")),
+        _flex(rng, 2, "L2", ("f1", "f2"), second),
         rigid_link("L3", {"a": _pose(rng), "b": _pose(rng)}),
-        _flex(rng, 3, "L4", ("f1", "f2")),
+        _flex(rng, 3, "L4", ("f1", "f2"), second),
         rigid_link("L5", {"a": _pose(rng)}),
     ]
     joints = [
