@@ -12,6 +12,18 @@ so that in motion the modal equations gain ``sum_c p_c(w) K_G,c eta`` (the stiff
 linear modal kinematics leaves out: the centrifugal softening is already in C''_ab).
 :func:`frame_force_stiffness` does the same for unit forces at the link's frames (applied
 loads at its pins and markers). Beam links and P2 solids.
+
+The force cases double as the frames' **second-order kinematics**
+(:func:`frame_hessians`). A unit force along body axis k at frame f does, through the
+second-order displacement of its point of application, the work that its prestress does
+through the nonlinear strain (virtual work with the Green-Lagrange strain; for a bar,
+the chord shortens by ``int w'^2 dx / 2``), so the frame's translation to second order is
+
+    r_f,k(eta) = r_f,k(0) + phi_f,k eta - eta^T K_F,f,k eta / 2.
+
+A force acting at the frame -- applied, or transmitted by a joint whose reaction the
+loop closure carries -- then stiffens the modes by F_k K_F,f,k through the frame's own
+kinematics: conservatively, and with no force element in between.
 """
 
 from __future__ import annotations
@@ -94,3 +106,19 @@ def _projected(model, tied, basis, loads, what: str) -> np.ndarray:
             KG = solid_modal_geometric_stiffness(model, u, Phi)
         out[c] = 0.5 * (KG + KG.T)
     return out
+
+
+def frame_hessians(force_stiffness: np.ndarray, modes=None) -> np.ndarray:
+    """(F, m, m, 3) second derivatives of the frames' translations, d2r_f/deta_a deta_b, m
+    per modal unit^2, body axes: ``-K_F,f,k`` of the unit force cases (module docstring).
+
+    Parameters
+    ----------
+    force_stiffness : (F, 3, M, M) the artifact's ``force_geometric_stiffness``.
+    modes : the kept modes (default all M).
+    """
+    KF = np.asarray(force_stiffness, dtype=float)
+    if modes is not None:
+        idx = list(modes)
+        KF = KF[:, :, idx][:, :, :, idx]
+    return -np.transpose(KF, (0, 2, 3, 1))

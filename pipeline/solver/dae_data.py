@@ -82,6 +82,8 @@ def _marker(mech, marker, offset, MM):
 def compile_dae(system, U: np.ndarray, P: np.ndarray) -> CompiledDae | None:
     """The flat data of ``system``, or None when a force element has no compiled form."""
     mech = system.mechanism
+    if any(f.hess is not None for link in mech.links for f in link.frames):
+        return None  # second-order frames: the compiled marker points are first order
     MM = max([1] + [len(i) for i in mech.modal_index])
     kinds, ints, pars, cons, hist, markers = [], [], [], [], [], []
     for f in system.forces:

@@ -18,9 +18,10 @@ from pydantic import ValidationError
 
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.dynamics import BodyMass, System, body_from_reduced
-from pipeline.dynamics.bodies import in_plane_modes, project_on_plane
+from pipeline.dynamics.bodies import PLANES, in_plane_modes, project_on_plane
 from pipeline.dynamics.forces import FORCES, GeometricStiffening
 from pipeline.fem.geometric import centrifugal_tensor
+from pipeline.invariants.stiffening import frame_hessians
 from pipeline.kinematics import Joint, build_mechanism, evaluate_tree, rigid_link
 from pipeline.kinematics.drivers import driver_from_dict
 from pipeline.kinematics.initial import initial_positions, initial_velocities
@@ -68,10 +69,10 @@ class Machine:
 
 
 class _View:
-    """Frame description accepted by link_from_frames (name, pose, phi, psi)."""
+    """Frame description accepted by link_from_frames (name, pose, phi, psi, hess)."""
 
-    def __init__(self, name, pose, phi, psi):
-        self.name, self.pose, self.phi, self.psi = name, pose, phi, psi
+    def __init__(self, name, pose, phi, psi, hess=None):
+        self.name, self.pose, self.phi, self.psi, self.hess = name, pose, phi, psi, hess
 
 
 def frame_pose(f, where: str) -> np.ndarray:
@@ -181,15 +182,24 @@ def _selected(reduced, candidates: list[int], rule, plane) -> tuple[int, ...]:
     return tuple(keep)
 
 
-def _flex_frames(reduced, idx, plane, extra, where_frames) -> list[_View]:
+def _flex_frames(reduced, idx, plane, extra, where_frames, second_order: bool = False
+                 ) -> list[_View]:
     """Frames of a reduced link restricted to the kept modes (projected on ``plane``),
-    plus extra frames fixed on existing ones (first order, like the shape matrix)."""
+    plus extra frames fixed on existing ones (first order, like the shape matrix). With
+    ``second_order`` (geometric stiffening) the frames' translations carry their
+    second-order terms (:func:`pipeline.invariants.stiffening.frame_hessians`); an extra
+    frame takes those of the frame it is fixed on."""
     views = {}
-    for f in reduced.frames:
+    H = (frame_hessians(reduced.force_geometric_stiffness, idx)
+         if second_order and reduced.force_geometric_stiffness.size and idx else None)
+    for i, f in enumerate(reduced.frames):
         phi, psi = np.array(f.phi)[list(idx)], np.array(f.psi)[list(idx)]
+        hess = None if H is None else H[i].copy()
         if plane is not None:  # the planar loops cannot follow residual out-of-plane motion
             phi, psi = project_on_plane(phi, psi, plane)
-        views[f.name] = _View(f.name, np.array(f.pose, dtype=float), phi, psi)
+            if hess is not None:
+                hess[..., PLANES[plane][0]] = 0.0
+        views[f.name] = _View(f.name, np.array(f.pose, dtype=float), phi, psi, hess)
     for new, fs in extra.items():
         if fs.on not in views:
             raise ConfigError(f"{where_frames}.{new}.on: expected one of {sorted(views)}, "
@@ -198,7 +208,8 @@ def _flex_frames(reduced, idx, plane, extra, where_frames) -> list[_View]:
         local = frame_pose(fs, f"{where_frames}.{new}")
         pose = base.pose @ local
         views[new] = _View(new, pose, base.phi + np.cross(base.psi, base.pose[:3, :3]
-                                                         @ local[:3, 3]), base.psi.copy())
+                                                         @ local[:3, 3]), base.psi.copy(),
+                           base.hess)
     return list(views.values())
 
 
@@ -251,7 +262,8 @@ def build_links(wf: Workflow, cache_dir: Path, rebuild: bool = False):
                     raise wf.error("links", name, "frames", k, "on",
                                    msg="a frame on a meshed link needs `on:` (a spec interface "
                                        "or marker)")
-        views = _flex_frames(red, idx, plane, extra, f"{where}.frames")
+        views = _flex_frames(red, idx, plane, extra, f"{where}.frames",
+                             bool(getattr(entry, "geometric_stiffening", False)))
         links.append(link_from_frames(name, views))
         if idx:
             d = entry.damping
@@ -370,7 +382,8 @@ def build_forces(wf: Workflow, mech, q0) -> list:
 def stiffening_elements(wf: Workflow, parts) -> list:
     """A :class:`GeometricStiffening` element per flexible link with
     ``geometric_stiffening: true`` and kept modes (named ``<link>:geometric_stiffening``):
-    its own centrifugal load and the forces other elements apply at its frames."""
+    its own centrifugal load. (The forces at its frames, applied or transmitted by its
+    joints, stiffen it through the frames' second-order kinematics, :func:`_flex_frames`.)"""
     out = []
     for name, entry in wf.spec.links.items():
         part = parts.get(name)
@@ -379,9 +392,7 @@ def stiffening_elements(wf: Workflow, parts) -> list:
         idx = list(part.modes)
         red = part.reduced
         G = centrifugal_tensor(red.geometric_stiffness[:, idx][:, :, idx])
-        KF = red.force_geometric_stiffness[:, :, idx][:, :, :, idx]
-        out.append(GeometricStiffening(f"{name}:geometric_stiffening", name, G,
-                                       tuple(f.name for f in red.frames), KF))
+        out.append(GeometricStiffening(f"{name}:geometric_stiffening", name, G))
     return out
 
 

@@ -1,7 +1,9 @@
-"""Centrifugal geometric-stiffness invariants of a P2 solid bar and of the same bar as a
-Hermite beam against the Rayleigh-Ritz integral of Euler-Bernoulli theory,
-K_G,11 = int rho A (L^2 - x^2) / 2 phi_1'(x)^2 dx (spin about z through the root, first
-in-plane bending mode phi_1, mass-normalised), and the load cases' resultants."""
+"""Geometric-stiffness invariants of a P2 solid bar and of the same bar as a Hermite beam
+against Euler-Bernoulli integrals of the first in-plane bending mode phi_1 (clamped-free,
+mass-normalised): the centrifugal K_G,11 = int rho A (L^2 - x^2) / 2 phi_1'^2 dx (spin
+about z through the root); the tip's second-order axial translation d2x/deta_1^2 =
+-int phi_1'^2 dx (the chord's shortening, from the unit tip-force case); and the load
+cases' resultants."""
 
 from __future__ import annotations
 
@@ -19,16 +21,25 @@ L, B, H, E, RHO = 0.5, 0.01, 0.02, 2.1e11, 7850.0
 ROOT = 1.8751040687
 
 
-def _eb_kg11() -> float:
+def _eb_first_mode():
+    """Quadrature points, weights, phi_1' (mass-normalised) of the clamped-free bar."""
     xg, wg = np.polynomial.legendre.leggauss(200)
     x, w = 0.5 * L * (xg + 1), 0.5 * L * wg
     b = ROOT / L
     s = (np.cosh(b * L) + np.cos(b * L)) / (np.sinh(b * L) + np.sin(b * L))
     phi = np.cosh(b * x) - np.cos(b * x) - s * (np.sinh(b * x) - np.sin(b * x))
     dphi = b * (np.sinh(b * x) + np.sin(b * x) - s * (np.cosh(b * x) - np.cos(b * x)))
-    rho_a = RHO * B * H
-    norm = rho_a * (w @ phi ** 2)
-    return float(w @ (rho_a * (L ** 2 - x ** 2) / 2 * dphi ** 2)) / norm
+    return x, w, dphi / np.sqrt(RHO * B * H * (w @ phi ** 2))
+
+
+def _eb_kg11() -> float:
+    x, w, dphi = _eb_first_mode()
+    return float(w @ (RHO * B * H * (L ** 2 - x ** 2) / 2 * dphi ** 2))
+
+
+def _eb_shortening() -> float:
+    _, w, dphi = _eb_first_mode()
+    return float(w @ dphi ** 2)
 
 
 def _reduce(folder, kind: str):
@@ -37,7 +48,7 @@ def _reduce(folder, kind: str):
     if kind == "beam":
         spec.write_text(beam_spec("bar", L, A=B * H, Iy=B * H ** 3 / 12, Iz=H * B ** 3 / 12,
                                   J=1.0e-9, E=E, rho=RHO, element_size=0.02, ends=("A", "tip"),
-                                  interfaces=("A",), z_axis=(0, 0, 1), modes=modes))
+                                  interfaces=("A", "tip"), z_axis=(0, 0, 1), modes=modes))
     else:
         spec.write_text(f"""\
 name: bar
@@ -46,6 +57,8 @@ geometry: {{type: solid, recipe: bar, params: {{L: {L}, b: {B}, h: {H}}}, mesh_s
 material: {{E: {E}, nu: 0.3, rho: {RHO}}}
 interfaces:
   - {{name: A, selector: {{type: group, name: end_x0}}, origin: [0, 0, 0], z_axis: [0, 0, 1]}}
+  - {{name: tip, selector: {{type: group, name: end_xL}}, origin: [{L}, 0, 0],
+     z_axis: [0, 0, 1]}}
 reference: A
 modes: {modes}
 """)
@@ -60,6 +73,23 @@ def test_centrifugal_stiffness_of_the_first_mode_is_euler_bernoulli(tmp_path, ki
     KG = np.einsum("c,cab->ab", centrifugal_products([0.0, 0.0, 1.0]),
                    link.geometric_stiffness)
     assert KG[first_y, first_y] == pytest.approx(_eb_kg11(), rel=0.01)
+
+
+@pytest.mark.parametrize("kind", ["solid", "beam"])
+def test_tip_second_order_translation_is_the_chord_shortening(tmp_path, kind):
+    """The unit tip-force case's geometric stiffness, read as the tip frame's second-order
+    translation (frame_hessians): bending in mode 1 pulls the tip back along the bar by
+    int phi_1'^2 dx eta_1^2 / 2 (Euler-Bernoulli, within 1 %), and moves it not at all
+    sideways at second order."""
+    from pipeline.invariants.stiffening import frame_hessians
+
+    link = _reduce(tmp_path, kind)
+    tip = np.abs(link.mode_shapes[:, np.argmax(link.nodes[:, 0])])
+    a = int(np.argmax(tip[:, 1] > 10 * tip[:, 2]))
+    H = frame_hessians(link.force_geometric_stiffness)[[f.name for f in link.frames]
+                                                       .index("tip")]
+    assert H[a, a, 0] == pytest.approx(-_eb_shortening(), rel=0.01)
+    assert np.abs(H[a, a, 1:]).max() < 1e-3 * abs(H[a, a, 0])
 
 
 def test_solid_centrifugal_load_resultant_is_m_w2_xc(tmp_path):
