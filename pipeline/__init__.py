@@ -11,7 +11,7 @@ inside the functions that need them.
 
 __version__ = "0.1.0"
 
-from pipeline.core.errors import (  # noqa: E402
+from pipeline.core.errors import (
     ArtifactError,
     ConfigError,
     KinematicsError,
@@ -22,7 +22,6 @@ from pipeline.core.errors import (  # noqa: E402
 )
 
 __all__ = [
-    "__version__",
     "ArtifactError",
     "ConfigError",
     "KinematicsError",
@@ -30,4 +29,5 @@ __all__ = [
     "ModalError",
     "PipelineError",
     "SolverError",
+    "__version__",
 ]

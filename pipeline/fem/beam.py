@@ -40,7 +40,7 @@ from pipeline.fem.model import FemModel
 from pipeline.fem.section import BeamSection, check_section, element_frames
 from pipeline.meshing.mesh_data import MeshData
 
-__all__ = ["assemble_beam", "beam_moments", "sections_by_member", "SECTION_COLUMNS"]
+__all__ = ["SECTION_COLUMNS", "assemble_beam", "beam_moments", "sections_by_member"]
 
 logger = logging.getLogger(__name__)
 

@@ -24,7 +24,7 @@ import numpy as np
 from pipeline.fem.model import FemModel
 from pipeline.fem.moments import MassMoments
 
-__all__ = ["beam_moments", "beam_fields"]
+__all__ = ["beam_fields", "beam_moments"]
 
 # 4 Gauss points integrate degree 7 exactly; the highest integrand is
 # (cubic transverse)^2 = degree 6.

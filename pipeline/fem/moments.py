@@ -37,7 +37,7 @@ class MassMoments:
     Cp: np.ndarray
     Cpp: np.ndarray
 
-    def __add__(self, other: "MassMoments") -> "MassMoments":
+    def __add__(self, other: MassMoments) -> MassMoments:
         return MassMoments(self.C + other.C, self.Cp + other.Cp, self.Cpp + other.Cpp)
 
 

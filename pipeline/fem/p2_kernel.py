@@ -78,7 +78,7 @@ class ReferenceRule:
     GG: np.ndarray  # (q, 9, 100): dN_i/dxi_k dN_j/dxi_l, (k, l) x (i, j)
 
     @classmethod
-    def of_order(cls, intorder: int) -> "ReferenceRule":
+    def of_order(cls, intorder: int) -> ReferenceRule:
         """Tables for skfem's tetrahedron rule exact to degree ``intorder``."""
         from skfem.quadrature import get_quadrature
         from skfem.refdom import RefTet
@@ -166,7 +166,7 @@ class NodePattern:
     n_nodes: int
 
     @classmethod
-    def of(cls, conn: np.ndarray, n_nodes: int) -> "NodePattern":
+    def of(cls, conn: np.ndarray, n_nodes: int) -> NodePattern:
         conn = np.asarray(conn, np.int64)
         key = (np.repeat(conn, 10, axis=1) * n_nodes + np.tile(conn, (1, 10))).ravel()
         uniq, position = np.unique(key, return_inverse=True)

@@ -18,9 +18,9 @@ Contract (shared by ``pipeline.meshing`` which produces it and
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Mapping
 
 import numpy as np
 

@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import sympy as sp
-
 from closed_form import (
     four_bar,
     four_bar_residual,

@@ -4,10 +4,9 @@ solutions) cross-checked by free-body statics."""
 
 from __future__ import annotations
 
+import loader_geometry as lg
 import numpy as np
 import pytest
-
-import loader_geometry as lg
 
 W = lg.RATED_LOAD_N
 H = 1e-6  # m: central-difference step on cylinder lengths

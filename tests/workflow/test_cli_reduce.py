@@ -47,6 +47,5 @@ def test_bad_input_one_clear_error_nothing_written(tmp_path, capsys, edit, expec
     assert main(["reduce", str(spec), "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and "Traceback" not in err
-    import re
-    assert re.search(expected, err, re.S), err
+    assert re.search(expected, err, re.DOTALL), err
     assert not out.exists() or list(out.iterdir()) == []
