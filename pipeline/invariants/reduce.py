@@ -62,6 +62,7 @@ class LinkRequest:
     f_max: float | None = None
     craig_bampton: bool = False
     geometric_stiffening: bool = False
+    chord: str | None = None
 
 
 def reduce_link(request: LinkRequest, times: StageTimes | None = None,
@@ -94,7 +95,8 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
         tied = tie_interfaces(model, interfaces)
     with stage(f"eigen solve of link '{name}'", times):
         basis = clamped_modes(tied, request.reference, n_modes=request.n_modes,
-                              f_max=request.f_max, craig_bampton=request.craig_bampton)
+                              f_max=request.f_max, craig_bampton=request.craig_bampton,
+                              chord=request.chord)
     with stage(f"invariants of link '{name}'", times):
         moments = mass_moments(model, basis.shapes)
         markers = tuple(_marker_interface(model, m) for m in request.markers)
@@ -113,6 +115,7 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
             m[0].name for m in motions]}}
     info = {"n_dof": model.n_dof, "n_nodes": model.n_nodes, "units": "SI (m, kg, s, N, rad)",
             "stage_seconds": times.as_dict(), "mesh": _mesh_quality(mesh, moments, request),
+            "reference_conditions": {"reference": request.reference, "chord": request.chord},
             **stiffening, **(meta or {})}
     with stage(f"stress modes of link '{name}'", times):
         from pipeline.fem.stress import RESULTANTS, VOIGT, stress_modes

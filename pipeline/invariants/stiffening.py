@@ -42,7 +42,7 @@ from pipeline.fem.geometric import (
 from pipeline.fem.interfaces import TiedModel
 from pipeline.fem.model import FemModel
 from pipeline.modes.basis import ModalBasis
-from pipeline.modes.clamp import clamp_reference
+from pipeline.modes.clamp import reference_space
 from pipeline.modes.eigen import factorize
 
 
@@ -92,7 +92,7 @@ def frame_force_stiffness(model: FemModel, tied: TiedModel, basis: ModalBasis,
 def _projected(model, tied, basis, loads, what: str) -> np.ndarray:
     """Phi^T K_sigma Phi of each load case (rows of ``loads``, full DOFs), solved clamped
     at the modes' reference."""
-    space = clamp_reference(tied, basis.reference)
+    space = reference_space(tied, basis.reference, basis.settings.get("chord"))
     lu = factorize(space.project(tied.stiffness), where=f"link {model.name!r}")
     expand = tied.transform @ space.L  # clamped coordinates -> full DOFs
     Phi = basis.shapes

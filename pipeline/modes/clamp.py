@@ -10,6 +10,13 @@ u_r = L x_c with a sparse L (n_red, n_c) and K_c = L^T K_r L, M_c = L^T M_r L.
   restricted to the interface's own DOFs picks the 6 best-conditioned
   columns C_d; then u_r[dep] = -C_d^-1 C_keep x_c (a sparse null-space basis
   of C). No penalty, no Lagrange multipliers, no approximation.
+* Chord reference (:func:`clamp_chord`, both interfaces RBE2): the reference's
+  translations and its rotation about the chord e (from the reference to the far
+  interface) are zero, and the far interface moves along the chord only
+  (n_1 . t = n_2 . t = 0): the link's body frame follows the line through its two
+  pins, and its modes are those of a link pinned at both ends (a connecting rod's
+  pinned-pinned bending, its axial and torsion modes). Six rows on master DOFs,
+  eliminated by the same pivoting.
 """
 
 from __future__ import annotations
@@ -34,7 +41,8 @@ class ClampedSpace:
     keep : (n_c,) tied indices that are the clamped coordinates.
     dep : (d,) tied indices eliminated (d = 6).
     L : (n_red, n_c) CSR expansion from clamped to tied coordinates.
-    method : "rbe2-masters" or "rbe3-pivot".
+    method : "rbe2-masters", "rbe3-pivot" or "chord".
+    chord : the far interface of a chord reference, else None.
     """
 
     reference: str
@@ -42,6 +50,7 @@ class ClampedSpace:
     dep: np.ndarray
     L: sp.csr_matrix
     method: str
+    chord: str | None = None
 
     @property
     def n_c(self) -> int:
@@ -82,6 +91,39 @@ def clamp_reference(tied: TiedModel, reference: str) -> ClampedSpace:
     return _clamp_rbe3(tied, itf.name)
 
 
+def clamp_chord(tied: TiedModel, reference: str, far: str) -> ClampedSpace:
+    """Chord reference between the RBE2 interfaces ``reference`` and ``far`` (module doc).
+
+    Raises
+    ------
+    ConfigError
+        Unknown interfaces, not RBE2, the same one twice, or coincident origins.
+    """
+    where = f"link {tied.model_name!r}: modes.chord"
+    ref, other = tied.interface(reference), tied.interface(far)
+    if ref.kind != "rbe2" or other.kind != "rbe2":
+        raise ConfigError(f"{where}: expected two RBE2 interfaces, got {ref.name!r} "
+                          f"({ref.kind}) and {other.name!r} ({other.kind})")
+    chord = np.asarray(other.origin, dtype=float) - np.asarray(ref.origin, dtype=float)
+    if ref.name == other.name or np.linalg.norm(chord) == 0.0:
+        raise ConfigError(f"{where}: expected an interface away from the reference "
+                          f"{ref.name!r}, got {far!r}")
+    e = chord / np.linalg.norm(chord)
+    n1 = np.cross(e, [1.0, 0, 0] if abs(e[0]) < 0.9 else [0, 1.0, 0])
+    n1 /= np.linalg.norm(n1)
+    n2 = np.cross(e, n1)
+    a, b = np.asarray(tied.master_dofs[ref.name]), np.asarray(tied.master_dofs[other.name])
+    rows = np.zeros((6, 12))
+    rows[:3, :3] = np.eye(3)  # the reference's translations
+    rows[3, 3:6] = e  # its rotation about the chord
+    rows[4, 6:9], rows[5, 6:9] = n1, n2  # the far end off the chord
+    cols = np.concatenate([a, b])
+    C = sp.csc_matrix((rows[np.nonzero(rows)], (np.nonzero(rows)[0],
+                                                cols[np.nonzero(rows)[1]])),
+                      shape=(6, tied.n_red))
+    return _eliminate(tied, ref.name, C, np.unique(cols), "chord", far=other.name)
+
+
 def _clamp_rbe3(tied: TiedModel, name: str) -> ClampedSpace:
     C = sp.csc_matrix(tied.rbe3_operators[name] @ tied.transform)  # (6, n_red)
     masters = np.concatenate([np.asarray(v) for v in tied.master_dofs.values()] or [[]])
@@ -90,6 +132,12 @@ def _clamp_rbe3(tied: TiedModel, name: str) -> ClampedSpace:
     if cand.size < 6:
         raise ModalError(f"link {tied.model_name!r}: interface {name!r}: cannot clamp an RBE3 "
                          f"whose nodes are all tied to RBE2 interfaces")
+    return _eliminate(tied, name, C, cand, "rbe3-pivot")
+
+
+def _eliminate(tied: TiedModel, name: str, C: sp.csc_matrix, cand: np.ndarray, method: str,
+               far: str | None = None) -> ClampedSpace:
+    """The space C u_r = 0 (6 rows), pivoting on 6 of the candidate columns."""
     Cc = C[:, cand].toarray()
     _, R, piv = la.qr(Cc, mode="economic", pivoting=True)
     if abs(R[5, 5]) <= 1e-10 * abs(R[0, 0]):
@@ -105,7 +153,13 @@ def _clamp_rbe3(tied: TiedModel, name: str) -> ClampedSpace:
     cols = np.concatenate([np.arange(keep.size), Dc.col])
     vals = np.concatenate([np.ones(keep.size), Dc.data])
     L = sp.csr_matrix((vals, (rows, cols)), shape=(tied.n_red, keep.size))
-    return ClampedSpace(name, keep, dep, L, "rbe3-pivot")
+    return ClampedSpace(name, keep, dep, L, method, far)
+
+
+def reference_space(tied: TiedModel, reference: str, chord: str | None = None) -> ClampedSpace:
+    """The clamp of the modes: the reference interface, or the chord to ``chord``."""
+    return clamp_reference(tied, reference) if chord is None else \
+        clamp_chord(tied, reference, chord)
 
 
 def check_reference(tied: TiedModel, reference) -> str:

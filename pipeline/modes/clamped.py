@@ -12,7 +12,7 @@ from pipeline.core.errors import ConfigError, ModalError
 from pipeline.core.progress import stage
 from pipeline.fem.interfaces import Interface, TiedModel
 from pipeline.modes.basis import ModalBasis, frequencies_from_eigenvalues, sign_flips
-from pipeline.modes.clamp import check_reference, clamp_reference
+from pipeline.modes.clamp import check_reference, reference_space
 from pipeline.modes.craig_bampton import craig_bampton_basis
 from pipeline.modes.eigen import DEFAULT_ORDERING, lowest_modes
 
@@ -22,8 +22,9 @@ logger = logging.getLogger(__name__)
 def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | None = None,
                   f_max: float | None = None, craig_bampton: bool = False,
                   interfaces: Iterable[str | Interface] | None = None, *,
-                  ordering: str = DEFAULT_ORDERING) -> ModalBasis:
-    """Fixed-interface normal modes (optionally Craig-Bampton) clamped at ``reference``.
+                  ordering: str = DEFAULT_ORDERING, chord: str | None = None) -> ModalBasis:
+    """Fixed-interface normal modes (optionally Craig-Bampton) clamped at ``reference``,
+    or with the chord reference to interface ``chord``.
 
     Parameters
     ----------
@@ -38,6 +39,9 @@ def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | No
     interfaces : Craig-Bampton interfaces (RBE2, not the reference); default all
         other RBE2 interfaces.
     ordering : SuperLU fill-reducing ordering (see :mod:`pipeline.modes.eigen`).
+    chord : instead of clamping the reference, hold it in translation and about the chord
+        to this RBE2 interface, which moves along the chord only
+        (:func:`pipeline.modes.clamp.clamp_chord`): pinned-pinned modes.
 
     Returns
     -------
@@ -54,14 +58,17 @@ def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | No
     where = f"link {tied.model_name!r}"
     ref = check_reference(tied, reference)
     cb_names = _cb_interfaces(tied, ref, interfaces) if craig_bampton else ()
+    if craig_bampton and chord is not None:
+        raise ConfigError(f"{where}: modes.chord and modes.craig_bampton exclude each other "
+                          "(the chord reference already holds the far interface)")
     if craig_bampton and not cb_names:
         raise ConfigError(f"{where}: craig_bampton needs at least one RBE2 interface besides "
                           f"the reference {ref!r}")
     if n_modes is None and f_max is None:
         raise ConfigError(f"{where}: clamped modes: give n_modes or f_max")
     t0 = time.perf_counter()
-    with stage(f"clamping {where} at {ref!r}"):
-        space = clamp_reference(tied, ref)
+    with stage(f"clamping {where} at {ref!r}" + (f" (chord to {chord!r})" if chord else "")):
+        space = reference_space(tied, ref, chord)
         K_c, M_c = space.project(tied.stiffness), space.project(tied.mass)
     what = "Craig-Bampton modes" if craig_bampton else "clamped modes"
     with stage(f"{what} of {where} ({space.n_c} DOFs)"):
@@ -83,6 +90,7 @@ def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | No
         "reference": ref, "reference_kind": tied.interface(ref).kind,
         "clamp_method": space.method, "n_modes": n_modes, "f_max": f_max,
         "craig_bampton": bool(craig_bampton), "cb_interfaces": list(cb_names),
+        "chord": chord,
         "ordering": ordering, "eigensolver": "eigsh shift-invert (sigma=0) / dense eigh",
         "n_dof": tied.n_dof, "n_clamped": space.n_c,
         "seconds": round(time.perf_counter() - t0, 4),

@@ -192,8 +192,11 @@ def _flex_frames(reduced, idx, plane, extra, where_frames, second_order: bool = 
     views = {}
     H = (frame_hessians(reduced.force_geometric_stiffness, idx)
          if second_order and reduced.force_geometric_stiffness.size and idx else None)
+    chord = chord_reference(reduced)
     for i, f in enumerate(reduced.frames):
         phi, psi = np.array(f.phi)[list(idx)], np.array(f.psi)[list(idx)]
+        if chord is not None and i == 0:  # the reference's frame is the chord's (a pin)
+            psi = np.zeros_like(psi)
         hess = None if H is None else H[i].copy()
         if plane is not None:  # the planar loops cannot follow residual out-of-plane motion
             phi, psi = project_on_plane(phi, psi, plane)
@@ -289,8 +292,22 @@ def _split(wf: Workflow, value: str, *path) -> tuple[str, str]:
     return link, frame
 
 
-def build_joints(wf: Workflow, links) -> list[Joint]:
+def chord_reference(reduced) -> str | None:
+    """The far interface of a reduced link with a chord reference (``modes.chord``), else
+    None. Its reference interface's frame is then the chord frame: it follows the line
+    through the two pins, not the elastic rotation of the end."""
+    return (reduced.meta.get("reference_conditions") or {}).get("chord")
+
+
+#: joints that leave the rotation of a link's end free about their axes, enough of it for
+#: a chord reference (the end rotates about the pin relative to the chord)
+PIN_JOINTS = ("revolute", "spherical")
+
+
+def build_joints(wf: Workflow, links, parts=None) -> list[Joint]:
     frames = {l.name: [f.name for f in l.frames] for l in links}
+    chord_pins = {name: p.reduced.frames[0].name for name, p in (parts or {}).items()
+                  if chord_reference(p.reduced) is not None}
     joints = []
     for i, j in enumerate(wf.spec.joints):
         sides = []
@@ -299,6 +316,12 @@ def build_joints(wf: Workflow, links) -> list[Joint]:
             if frame not in frames[link]:
                 raise wf.error("joints", i, side, msg=f"link {link!r} has no frame {frame!r}; "
                                                       f"frames: {frames[link]}")
+            if chord_pins.get(link) == frame and j.type not in PIN_JOINTS:
+                raise wf.error("joints", i, "type", msg=(
+                    f"link {link!r} has a chord reference (modes.chord): its frame "
+                    f"{frame!r} follows the chord, not the end, so only a pin "
+                    f"({' or '.join(PIN_JOINTS)}) may join it there, not {j.type!r}; "
+                    "use clamped modes for a fixed end"))
             sides += [link, frame]
         try:
             joints.append(Joint(j.name, j.type, sides[0], sides[1], sides[2], sides[3],
@@ -436,7 +459,7 @@ def build_machine(wf: Workflow, cache_dir: str | Path = "output/links",
         Any inconsistency, named by workflow file, line and YAML path.
     """
     links, bodies, parts = build_links(wf, Path(cache_dir), rebuild)
-    joints = build_joints(wf, links)
+    joints = build_joints(wf, links, parts)
     try:
         mech = build_mechanism(links, joints)
     except ConfigError as exc:

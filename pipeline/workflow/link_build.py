@@ -87,7 +87,7 @@ def link_request(spec: LinkSpec, base_dir: Path) -> tuple[LinkRequest, tuple[Pat
                            for p in spec.point_masses),
         n_modes=spec.modes.count, f_max=spec.modes.f_max,
         craig_bampton=spec.modes.craig_bampton,
-        geometric_stiffening=spec.modes.geometric_stiffening,
+        geometric_stiffening=spec.modes.geometric_stiffening, chord=spec.modes.chord,
     )
     return request, files
 
@@ -111,8 +111,9 @@ def _sections_per_member(spec: LinkSpec) -> list:
 
 #: bumped whenever the reduction's numbers change for the same spec (2: repeated
 #: frequencies completed and aligned with the body axes; 3: stress modes; 4: frame-force
-#: geometric stiffness), so cached artifacts are rebuilt
-REDUCTION_REVISION = 4
+#: geometric stiffness; 5: reference conditions in the meta, chord references), so cached
+#: artifacts are rebuilt
+REDUCTION_REVISION = 5
 
 
 def input_hash(spec: LinkSpec, files: tuple[Path, ...]) -> str:

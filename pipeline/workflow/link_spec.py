@@ -132,6 +132,10 @@ class ModesSpec(Strict):
     count: int | None = Field(None, ge=0, description="number of fixed-interface modes")
     f_max: float | None = Field(None, gt=0, description="keep modes up to this frequency, Hz")
     craig_bampton: bool = Field(False, description="add constraint modes of the other interfaces")
+    chord: str | None = Field(
+        None, description="chord reference: instead of clamping the reference interface, hold "
+                          "it in translation and about the line to this interface, which moves "
+                          "along that line only (a link pinned at both ends)")
     geometric_stiffening: bool = Field(
         False, description="compute the geometric stiffness of the modes under their own spin and "
                            "forces at their frames (beams, P2 solids), used when a workflow sets the link's geometric_stiffening")
