@@ -94,9 +94,12 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
         interfaces = resolve_interfaces(model, request.interfaces, mesh.groups)
         tied = tie_interfaces(model, interfaces)
     with stage(f"eigen solve of link '{name}'", times):
+        from pipeline.modes.clamp import ClampedProblem
+
+        problem = ClampedProblem(tied, request.reference, request.chord)
         basis = clamped_modes(tied, request.reference, n_modes=request.n_modes,
                               f_max=request.f_max, craig_bampton=request.craig_bampton,
-                              chord=request.chord)
+                              chord=request.chord, problem=problem)
     with stage(f"invariants of link '{name}'", times):
         moments = mass_moments(model, basis.shapes)
         markers = tuple(_marker_interface(model, m) for m in request.markers)
@@ -108,9 +111,9 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
         from pipeline.invariants.stiffening import centrifugal_stiffness, frame_force_stiffness
 
         with stage(f"geometric stiffness of link '{name}'", times):
-            KG, summary = centrifugal_stiffness(model, tied, basis, ref.pose)
+            KG, summary = centrifugal_stiffness(model, tied, basis, ref.pose, problem)
             KF = frame_force_stiffness(model, tied, basis, ref.pose,
-                                       [m[0] for m in motions])
+                                       [m[0] for m in motions], problem)
         stiffening = {"geometric_stiffening": {**summary, "frame_forces": [
             m[0].name for m in motions]}}
     info = {"n_dof": model.n_dof, "n_nodes": model.n_nodes, "units": "SI (m, kg, s, N, rad)",

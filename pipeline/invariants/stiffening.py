@@ -42,12 +42,12 @@ from pipeline.fem.geometric import (
 from pipeline.fem.interfaces import TiedModel
 from pipeline.fem.model import FemModel
 from pipeline.modes.basis import ModalBasis
-from pipeline.modes.clamp import reference_space
-from pipeline.modes.eigen import factorize
+from pipeline.modes.clamp import ClampedProblem
 
 
 def centrifugal_stiffness(model: FemModel, tied: TiedModel, basis: ModalBasis,
-                          body_pose: np.ndarray) -> tuple[np.ndarray, dict]:
+                          body_pose: np.ndarray, problem: ClampedProblem | None = None
+                          ) -> tuple[np.ndarray, dict]:
     """(6, m, m) K_G,c of the unit centrifugal cases (w in body axes) and a summary.
 
     Parameters
@@ -56,6 +56,7 @@ def centrifugal_stiffness(model: FemModel, tied: TiedModel, basis: ModalBasis,
     basis : its clamped modes (``basis.reference`` is the clamp of the load cases).
     body_pose : (4, 4) body frame in the link frame (origin = spin point, axes = the
         axes w is given in).
+    problem : the modes' clamped problem, to reuse its factorisation (built if None).
 
     Returns
     -------
@@ -66,12 +67,13 @@ def centrifugal_stiffness(model: FemModel, tied: TiedModel, basis: ModalBasis,
         loads = centrifugal_loads(model, body_pose[:3, 3], body_pose[:3, :3])
     else:
         loads = solid_centrifugal_loads(model, body_pose[:3, 3], body_pose[:3, :3])
-    out = _projected(model, tied, basis, loads, "centrifugal")
+    out = _projected(model, tied, basis, loads, "centrifugal", problem)
     return out, {"cases": list(CENTRIFUGAL_CASES)}
 
 
 def frame_force_stiffness(model: FemModel, tied: TiedModel, basis: ModalBasis,
-                          body_pose: np.ndarray, frames) -> np.ndarray:
+                          body_pose: np.ndarray, frames,
+                          problem: ClampedProblem | None = None) -> np.ndarray:
     """(F, 3, m, m) geometric stiffness per unit force (N) along each body axis at each
     of ``frames`` (Interface objects in the artifact's frame order), the force applied
     through the frame's own motion operator (the work-conjugate load: a beam node with
@@ -84,16 +86,17 @@ def frame_force_stiffness(model: FemModel, tied: TiedModel, basis: ModalBasis,
     for itf in frames:
         G = interface_operator(model, itf)[:3]  # translation of the frame's point
         loads += [np.asarray(G.T @ R[:, k]).ravel() for k in range(3)]
-    out = _projected(model, tied, basis, np.array(loads), "frame force")
+    out = _projected(model, tied, basis, np.array(loads), "frame force", problem)
     m = out.shape[-1]
     return out.reshape(len(frames), 3, m, m)
 
 
-def _projected(model, tied, basis, loads, what: str) -> np.ndarray:
+def _projected(model, tied, basis, loads, what: str, problem=None) -> np.ndarray:
     """Phi^T K_sigma Phi of each load case (rows of ``loads``, full DOFs), solved clamped
-    at the modes' reference."""
-    space = reference_space(tied, basis.reference, basis.settings.get("chord"))
-    lu = factorize(space.project(tied.stiffness), where=f"link {model.name!r}")
+    at the modes' reference (in ``problem``, whose factorisation is reused)."""
+    if problem is None:
+        problem = ClampedProblem(tied, basis.reference, basis.settings.get("chord"))
+    space, lu = problem.space, problem.factor()
     expand = tied.transform @ space.L  # clamped coordinates -> full DOFs
     Phi = basis.shapes
     out = np.empty((len(loads), Phi.shape[1], Phi.shape[1]))

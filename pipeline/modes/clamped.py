@@ -12,9 +12,9 @@ from pipeline.core.errors import ConfigError, ModalError
 from pipeline.core.progress import stage
 from pipeline.fem.interfaces import Interface, TiedModel
 from pipeline.modes.basis import ModalBasis, frequencies_from_eigenvalues, sign_flips
-from pipeline.modes.clamp import check_reference, reference_space
+from pipeline.modes.clamp import ClampedProblem, check_reference
 from pipeline.modes.craig_bampton import craig_bampton_basis
-from pipeline.modes.eigen import DEFAULT_ORDERING, lowest_modes
+from pipeline.modes.eigen import DEFAULT_ORDERING, DENSE_BELOW, lowest_modes
 
 logger = logging.getLogger(__name__)
 
@@ -22,7 +22,8 @@ logger = logging.getLogger(__name__)
 def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | None = None,
                   f_max: float | None = None, craig_bampton: bool = False,
                   interfaces: Iterable[str | Interface] | None = None, *,
-                  ordering: str = DEFAULT_ORDERING, chord: str | None = None) -> ModalBasis:
+                  ordering: str = DEFAULT_ORDERING, chord: str | None = None,
+                  problem: ClampedProblem | None = None) -> ModalBasis:
     """Fixed-interface normal modes (optionally Craig-Bampton) clamped at ``reference``,
     or with the chord reference to interface ``chord``.
 
@@ -42,6 +43,8 @@ def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | No
     chord : instead of clamping the reference, hold it in translation and about the chord
         to this RBE2 interface, which moves along the chord only
         (:func:`pipeline.modes.clamp.clamp_chord`): pinned-pinned modes.
+    problem : the clamped problem of ``tied`` at these reference conditions, to share its
+        factorisation with later static solves (built here if not given).
 
     Returns
     -------
@@ -68,8 +71,9 @@ def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | No
         raise ConfigError(f"{where}: clamped modes: give n_modes or f_max")
     t0 = time.perf_counter()
     with stage(f"clamping {where} at {ref!r}" + (f" (chord to {chord!r})" if chord else "")):
-        space = reference_space(tied, ref, chord)
-        K_c, M_c = space.project(tied.stiffness), space.project(tied.mass)
+        if problem is None:
+            problem = ClampedProblem(tied, ref, chord)
+        space, K_c, M_c = problem.space, problem.K, problem.M
     what = "Craig-Bampton modes" if craig_bampton else "clamped modes"
     with stage(f"{what} of {where} ({space.n_c} DOFs)"):
         if craig_bampton:
@@ -77,7 +81,8 @@ def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | No
             lam, X, kinds = craig_bampton_basis(K_c, M_c, boundary, n_modes, f_max,
                                            ordering=ordering, where=where)
         else:
-            lam, X = _complete_pairs(K_c, M_c, n_modes, f_max, ordering, where)
+            lu = problem.factor(ordering) if space.n_c >= DENSE_BELOW else None
+            lam, X = _complete_pairs(K_c, M_c, n_modes, f_max, ordering, where, lu)
             kinds = ("normal",) * lam.size
         check_connected(tied, space, where)
         warn = _round_off_modes(lam, K_c, M_c, where, ref)
@@ -106,14 +111,14 @@ def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | No
 REPEATED_RTOL = 1e-3
 
 
-def _complete_pairs(K_c, M_c, n_modes, f_max, ordering, where):
+def _complete_pairs(K_c, M_c, n_modes, f_max, ordering, where, lu=None):
     """The lowest modes by count and/or cut-off, one more when the count would split a
     repeated frequency (Iy = Iz: the partner of the last mode would be missing, and the
     last mode an arbitrary mix of the two planes)."""
     n = K_c.shape[0]
     if n_modes is None or n_modes + 1 > n:
-        return lowest_modes(K_c, M_c, n_modes, f_max, ordering=ordering, where=where)
-    lam, X = lowest_modes(K_c, M_c, n_modes + 1, f_max, ordering=ordering, where=where)
+        return lowest_modes(K_c, M_c, n_modes, f_max, ordering=ordering, lu=lu, where=where)
+    lam, X = lowest_modes(K_c, M_c, n_modes + 1, f_max, ordering=ordering, lu=lu, where=where)
     if lam.size == n_modes + 1:
         w = np.sqrt(np.maximum(lam[-2:], 0.0))
         if abs(w[1] - w[0]) <= REPEATED_RTOL * w[1]:
