@@ -108,3 +108,23 @@ def test_solid_centrifugal_load_resultant_is_m_w2_xc(tmp_path):
     resultant = f[model.node_dofs].sum(axis=0)
     np.testing.assert_allclose(resultant, [RHO * B * H * L * 9.0 * L / 2, 0, 0], rtol=1e-10,
                                atol=1e-9)
+
+
+def test_a_link_is_factorised_once(tmp_path, monkeypatch):
+    """The eigen solve and the twelve geometric-stiffness load cases share one
+    factorisation of the clamped stiffness (a 500 k DOF link's takes minutes; the load
+    cases made two more)."""
+    import pipeline.modes.clamp as clamp
+    import pipeline.modes.eigen as eigen
+
+    calls = []
+    real = clamp.factorize
+
+    def counting(*args, **kwargs):
+        calls.append(args[0].shape)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(clamp, "factorize", counting)
+    monkeypatch.setattr(eigen, "factorize", counting)
+    link = _reduce(tmp_path, "solid")
+    assert link.force_geometric_stiffness.shape[0] == 2 and len(calls) == 1
