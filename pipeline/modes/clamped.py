@@ -75,6 +75,7 @@ def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | No
             problem = ClampedProblem(tied, ref, chord)
         space, K_c, M_c = problem.space, problem.K, problem.M
     what = "Craig-Bampton modes" if craig_bampton else "clamped modes"
+    factor = "of K_ii (Craig-Bampton)" if craig_bampton else None
     with stage(f"{what} of {where} ({space.n_c} DOFs)"):
         if craig_bampton:
             boundary = np.concatenate([space.index_of(tied.master_dofs[n]) for n in cb_names])
@@ -82,6 +83,7 @@ def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | No
                                            ordering=ordering, where=where)
         else:
             lu = problem.factor(ordering) if space.n_c >= DENSE_BELOW else None
+            factor = "none (dense)" if lu is None else type(lu).__name__
             lam, X = _complete_pairs(K_c, M_c, n_modes, f_max, ordering, where, lu)
             kinds = ("normal",) * lam.size
         check_connected(tied, space, where)
@@ -97,6 +99,7 @@ def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | No
         "craig_bampton": bool(craig_bampton), "cb_interfaces": list(cb_names),
         "chord": chord,
         "ordering": ordering, "eigensolver": "eigsh shift-invert (sigma=0) / dense eigh",
+        "factorisation": factor,
         "n_dof": tied.n_dof, "n_clamped": space.n_c,
         "seconds": round(time.perf_counter() - t0, 4),
         "warnings": [warn] if warn else [],

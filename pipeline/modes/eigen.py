@@ -35,23 +35,69 @@ DEFAULT_ORDERING = "MMD_AT_PLUS_A"
 DENSE_BELOW = 200  # DOFs; dense eigh is as fast below this (and needs no shift)
 
 
+#: DOFs from which a symmetric factorisation uses CHOLMOD when scikit-sparse is installed:
+#: a Cholesky factor holds about 40 % of SuperLU's L + U (SuperLU's 32-bit indices also
+#: give out near 1 M P2 DOF: MemoryError at 1.0 M on a 24 GB machine)
+CHOLMOD_ABOVE = 100_000
+
+
+class CholmodFactor:
+    """A CHOLMOD (scikit-sparse) Cholesky factor with SuperLU's ``solve``."""
+
+    def __init__(self, factor, n: int):
+        self._factor, self.shape = factor, (n, n)
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """x with A x = b, b (n,) or (n, k)."""
+        return self._factor(np.asarray(b, dtype=float))
+
+
+def _cholmod():
+    try:
+        from sksparse import cholmod
+    except ImportError:
+        return None
+    return cholmod
+
+
 def factorize(A: sp.spmatrix, ordering: str = DEFAULT_ORDERING, symmetric: bool = True,
-              where: str = "model") -> spla.SuperLU:
-    """Sparse LU of a symmetric positive-definite matrix (SuperLU).
+              where: str = "model", backend: str = "auto"):
+    """Sparse factorisation of a symmetric positive-definite matrix: SuperLU (scipy), or
+    CHOLMOD (scikit-sparse, optional) for large ones.
 
     Parameters
     ----------
     A : (n, n) sparse, symmetric.
-    ordering : one of :data:`ORDERINGS` (SuperLU ``permc_spec``).
+    ordering : one of :data:`ORDERINGS` (SuperLU ``permc_spec``; CHOLMOD orders itself).
     symmetric : use SuperLU's symmetric mode (diagonal pivots), valid for SPD A.
     where : label for error messages.
+    backend : "superlu", "cholmod", or "auto": CHOLMOD for symmetric A with at least
+        :data:`CHOLMOD_ABOVE` rows when scikit-sparse is installed, else SuperLU.
+
+    Returns
+    -------
+    An object with ``solve(b)``: ``scipy.sparse.linalg.SuperLU`` or :class:`CholmodFactor`.
 
     Raises
     ------
-    ConfigError for an unknown ordering; ModalError if A is singular.
+    ConfigError for an unknown ordering or backend (or CHOLMOD asked and not installed);
+    ModalError if A is singular.
     """
     if ordering not in ORDERINGS:
         raise ConfigError(f"{where}: ordering: expected one of {ORDERINGS}, got {ordering!r}")
+    if backend not in ("auto", "superlu", "cholmod"):
+        raise ConfigError(f"{where}: backend: expected auto, superlu or cholmod, got "
+                          f"{backend!r}")
+    cholmod = _cholmod() if backend != "superlu" and symmetric else None
+    if backend == "cholmod" and cholmod is None:
+        raise ConfigError(f"{where}: backend cholmod needs scikit-sparse (and SuiteSparse)")
+    if cholmod is not None and (backend == "cholmod" or A.shape[0] >= CHOLMOD_ABOVE):
+        try:
+            return CholmodFactor(cholmod.cholesky(sp.csc_matrix(A)), A.shape[0])
+        except cholmod.CholmodNotPositiveDefiniteError as exc:
+            raise ModalError(f"{where}: the constrained stiffness is not positive definite "
+                             f"({exc}); the clamp does not remove all rigid motions or the "
+                             "model has a mechanism") from exc
     kwargs = {"options": {"SymmetricMode": True}, "diag_pivot_thresh": 0.0} if symmetric else {}
     try:
         return spla.splu(sp.csc_matrix(A), permc_spec=ordering, **kwargs)
