@@ -33,11 +33,29 @@ __all__ = [
     "principal_stresses",
     "solid_nodal_stress",
     "stress_modes",
+    "tensor_to_voigt",
+    "voigt_to_tensor",
     "von_mises",
 ]
 
 VOIGT = ("xx", "yy", "zz", "yz", "xz", "xy")
 RESULTANTS = ("N", "Vy", "Vz", "T", "My", "Mz")
+#: tensor indices (row, column) of each Voigt component
+_VI, _VJ = np.array([0, 1, 2, 1, 0, 0]), np.array([0, 1, 2, 2, 2, 1])
+
+
+def voigt_to_tensor(s: np.ndarray) -> np.ndarray:
+    """(..., 3, 3) symmetric tensors of Voigt vectors (..., 6) in :data:`VOIGT` order."""
+    s = np.asarray(s, dtype=float)
+    T = np.zeros(s.shape[:-1] + (3, 3))
+    T[..., _VI, _VJ] = s
+    T[..., _VJ, _VI] = s
+    return T
+
+
+def tensor_to_voigt(T: np.ndarray) -> np.ndarray:
+    """(..., 6) Voigt vectors of symmetric tensors (..., 3, 3)."""
+    return np.asarray(T)[..., _VI, _VJ]
 
 
 def stress_modes(model: FemModel, U: np.ndarray) -> np.ndarray:
@@ -70,9 +88,7 @@ def solid_nodal_stress(model: FemModel, U: np.ndarray) -> np.ndarray:
         grad = np.einsum("epna,enb->epba", G, u, optimize=True)  # du_b/dx_a -> [b, a]
         eps = 0.5 * (grad + np.swapaxes(grad, -1, -2))
         tr = np.trace(eps, axis1=-2, axis2=-1)
-        s = 2 * mu * eps + lam * tr[..., None, None] * np.eye(3)
-        voigt = np.stack([s[..., 0, 0], s[..., 1, 1], s[..., 2, 2], s[..., 1, 2],
-                          s[..., 0, 2], s[..., 0, 1]], axis=-1)  # (e, 10, 6)
+        voigt = tensor_to_voigt(2 * mu * eps + lam * tr[..., None, None] * np.eye(3))
         for c in range(6):
             out[a, :, c] = np.bincount(cells.ravel(), voigt[..., c].ravel(),
                                        minlength=model.n_nodes)
@@ -157,8 +173,4 @@ def von_mises(s: np.ndarray) -> np.ndarray:
 
 def principal_stresses(s: np.ndarray) -> np.ndarray:
     """(..., 3) principal stresses, descending, of Voigt stresses (..., 6), Pa."""
-    s = np.asarray(s, dtype=float)
-    T = np.stack([np.stack([s[..., 0], s[..., 5], s[..., 4]], -1),
-                  np.stack([s[..., 5], s[..., 1], s[..., 3]], -1),
-                  np.stack([s[..., 4], s[..., 3], s[..., 2]], -1)], -2)
-    return np.linalg.eigvalsh(T)[..., ::-1]
+    return np.linalg.eigvalsh(voigt_to_tensor(s))[..., ::-1]

@@ -19,6 +19,7 @@ from pipeline.core.progress import StageTimes, stage
 from pipeline.fem.interfaces import Interface, InterfaceSpec, make_interface, resolve_interfaces
 from pipeline.fem.model import FemModel
 from pipeline.fem.moments import MassMoments, mass_moments
+from pipeline.fem.stress import RESULTANTS, VOIGT, stress_modes, tensor_to_voigt, voigt_to_tensor
 from pipeline.invariants.body_frame import congruent, inverse_pose, points_to_body, vectors_to_body
 from pipeline.invariants.participation import align_repeated
 from pipeline.invariants.reduced_link import FrameModes, ReducedLink
@@ -99,7 +100,7 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
         problem = ClampedProblem(tied, request.reference, request.chord)
         basis = clamped_modes(tied, request.reference, n_modes=request.n_modes,
                               f_max=request.f_max, craig_bampton=request.craig_bampton,
-                              chord=request.chord, problem=problem)
+                              problem=problem)
     with stage(f"invariants of link '{name}'", times):
         moments = mass_moments(model, basis.shapes)
         markers = tuple(_marker_interface(model, m) for m in request.markers)
@@ -121,8 +122,6 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
             "reference_conditions": {"reference": request.reference, "chord": request.chord},
             **stiffening, **(meta or {})}
     with stage(f"stress modes of link '{name}'", times):
-        from pipeline.fem.stress import RESULTANTS, VOIGT, stress_modes
-
         S = _stress_to_body(model, ref.pose, stress_modes(model, basis.shapes))
     info["stress"] = ({"kind": "resultants", "components": list(RESULTANTS),
                        "units": "N, N m, element axes"} if model.kind == "beam" else
@@ -200,12 +199,8 @@ def _stress_to_body(model: FemModel, H: np.ndarray, S: np.ndarray) -> np.ndarray
     if model.kind == "beam":
         return S.astype(np.float32)
     R = H[:3, :3]
-    i, j = np.array([0, 1, 2, 1, 0, 0]), np.array([0, 1, 2, 2, 2, 1])
-    T = np.zeros(S.shape[:2] + (3, 3))
-    T[..., i, j] = S
-    T[..., j, i] = S
-    B = np.einsum("ai,mnab,bj->mnij", R, T, R, optimize=True)
-    return B[..., i, j].astype(np.float32)
+    B = np.einsum("ai,mnab,bj->mnij", R, voigt_to_tensor(S), R, optimize=True)
+    return tensor_to_voigt(B).astype(np.float32)
 
 
 def _to_body_frame(name, model, mesh, basis, moments, motions, markers, ref, info) -> ReducedLink:

@@ -17,6 +17,8 @@ from pipeline.fem.stress import (
     beam_nodal_resultants,
     principal_stresses,
     solid_nodal_stress,
+    tensor_to_voigt,
+    voigt_to_tensor,
     von_mises,
 )
 from pipeline.meshing.mesh_data import MeshData
@@ -112,3 +114,15 @@ def test_invariants_of_known_states():
                         + (p[:, 2] - p[:, 0]) ** 2))
     np.testing.assert_allclose(von_mises(s), vm, rtol=1e-12)
     np.testing.assert_allclose(p.sum(axis=1), s[:, :3].sum(axis=1), atol=1e-12)
+
+
+def test_voigt_and_tensor_forms_agree():
+    """Voigt [xx, yy, zz, yz, xz, xy] <-> symmetric tensor, and a uniaxial x stress turned
+    90 degrees about z is the uniaxial y stress (the body-axes rotation of the artifact)."""
+    s = np.array([1.0, 2, 3, 4, 5, 6])
+    T = voigt_to_tensor(s)
+    np.testing.assert_array_equal(T, [[1, 6, 5], [6, 2, 4], [5, 4, 3]])
+    np.testing.assert_array_equal(tensor_to_voigt(T), s)
+    R = np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]])
+    turned = tensor_to_voigt(R @ voigt_to_tensor([7.0, 0, 0, 0, 0, 0]) @ R.T)
+    np.testing.assert_allclose(turned, [0, 7.0, 0, 0, 0, 0], atol=1e-15)
