@@ -43,8 +43,9 @@ def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | No
     chord : instead of clamping the reference, hold it in translation and about the chord
         to this RBE2 interface, which moves along the chord only
         (:func:`pipeline.modes.clamp.clamp_chord`): pinned-pinned modes.
-    problem : the clamped problem of ``tied`` at these reference conditions, to share its
-        factorisation with later static solves (built here if not given).
+    problem : the clamped problem of ``tied`` (its reference conditions, chord included,
+        and its factorisation, shared with later static solves); built here from
+        ``reference`` and ``chord`` if not given.
 
     Returns
     -------
@@ -60,6 +61,11 @@ def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | No
     """
     where = f"link {tied.model_name!r}"
     ref = check_reference(tied, reference)
+    if problem is not None:
+        if problem.space.reference != ref:
+            raise ConfigError(f"{where}: the clamped problem is clamped at "
+                              f"{problem.space.reference!r}, not at {ref!r}")
+        chord = problem.space.chord
     cb_names = _cb_interfaces(tied, ref, interfaces) if craig_bampton else ()
     if craig_bampton and chord is not None:
         raise ConfigError(f"{where}: modes.chord and modes.craig_bampton exclude each other "

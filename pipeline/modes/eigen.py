@@ -95,16 +95,17 @@ def factorize(A: sp.spmatrix, ordering: str = DEFAULT_ORDERING, symmetric: bool 
         try:
             return CholmodFactor(cholmod.cholesky(sp.csc_matrix(A)), A.shape[0])
         except cholmod.CholmodNotPositiveDefiniteError as exc:
-            raise ModalError(f"{where}: the constrained stiffness is not positive definite "
-                             f"({exc}); the clamp does not remove all rigid motions or the "
-                             "model has a mechanism") from exc
+            raise _not_definite(where, "not positive definite", exc) from exc
     kwargs = {"options": {"SymmetricMode": True}, "diag_pivot_thresh": 0.0} if symmetric else {}
     try:
         return spla.splu(sp.csc_matrix(A), permc_spec=ordering, **kwargs)
     except RuntimeError as exc:  # SuperLU: "Factor is exactly singular"
-        raise ModalError(f"{where}: the constrained stiffness is singular ({exc}); the "
-                         f"clamp does not remove all rigid motions or the model has a mechanism"
-                         ) from exc
+        raise _not_definite(where, "singular", exc) from exc
+
+
+def _not_definite(where: str, what: str, exc: Exception) -> ModalError:
+    return ModalError(f"{where}: the constrained stiffness is {what} ({exc}); the clamp does "
+                      "not remove all rigid motions or the model has a mechanism")
 
 
 def lowest_modes(K: sp.spmatrix, M: sp.spmatrix, n_modes: int | None = None,
