@@ -1,5 +1,5 @@
-"""Sample links for the tests: a solid bar spec writer, a straight beam spec, and a random
-artifact."""
+"""Sample links for the tests: solid bar specs (the aluminium bar written to a file; any
+bar with two end interfaces as text), a straight beam spec, and a random artifact."""
 
 import textwrap
 from pathlib import Path
@@ -83,4 +83,21 @@ def beam_spec(name: str, length: float, *, A: float, Iy: float, Iz: float, J: fl
         lines.append("markers:")
         lines += [f"  - {{name: {n}, position: [{x!r}, 0, 0]}}" for n, x in markers.items()]
     lines.append(f"modes: {modes}")
+    return "\n".join(lines) + "\n"
+
+
+def solid_bar_spec(name: str, length: float, b: float, h: float, *, mesh_size: float,
+                   E: float = 2.1e11, nu: float = 0.3, rho: float = 7850.0,
+                   ends=("A", "B"), modes="{count: 8}") -> str:
+    """The YAML of a P2 solid bar (recipe ``bar``: x from 0 to ``length``, section b along
+    y by h along z, m) with RBE2 interfaces ``ends`` on its end faces, joint axes along z,
+    the first the reference; ``modes`` as YAML text."""
+    lines = [f"name: {name}",
+             (f"geometry: {{type: solid, recipe: bar, params: {{L: {length!r}, b: {b!r}, "
+              f"h: {h!r}}}, mesh_size: {mesh_size!r}, order: 2}}"),
+             f"material: {{E: {E!r}, nu: {nu!r}, rho: {rho!r}}}", "interfaces:"]
+    lines += [f"  - {{name: {n}, selector: {{type: group, name: {g}}}, origin: [{x!r}, 0, 0], "
+              "z_axis: [0, 0, 1]}"
+              for n, g, x in zip(ends, ("end_x0", "end_xL"), (0.0, length), strict=True)]
+    lines += [f"reference: {ends[0]}", f"modes: {modes}"]
     return "\n".join(lines) + "\n"

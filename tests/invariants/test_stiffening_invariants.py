@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from link_samples import beam_spec
+from link_samples import beam_spec, solid_bar_spec
 
 from pipeline.fem.geometric import centrifugal_products, solid_centrifugal_loads
 from pipeline.workflow.link_build import reduce_spec
@@ -50,18 +50,8 @@ def _reduce(folder, kind: str):
                                   J=1.0e-9, E=E, rho=RHO, element_size=0.02, ends=("A", "tip"),
                                   interfaces=("A", "tip"), z_axis=(0, 0, 1), modes=modes))
     else:
-        spec.write_text(f"""\
-name: bar
-geometry: {{type: solid, recipe: bar, params: {{L: {L}, b: {B}, h: {H}}}, mesh_size: 0.005,
-           order: 2}}
-material: {{E: {E}, nu: 0.3, rho: {RHO}}}
-interfaces:
-  - {{name: A, selector: {{type: group, name: end_x0}}, origin: [0, 0, 0], z_axis: [0, 0, 1]}}
-  - {{name: tip, selector: {{type: group, name: end_xL}}, origin: [{L}, 0, 0],
-     z_axis: [0, 0, 1]}}
-reference: A
-modes: {modes}
-""")
+        spec.write_text(solid_bar_spec("bar", L, B, H, mesh_size=0.005, E=E, rho=RHO,
+                                       ends=("A", "tip"), modes=modes))
     return reduce_spec(load_link_spec(spec), folder, folder / "links")[0]
 
 
@@ -114,8 +104,7 @@ def test_a_link_is_factorised_once(tmp_path, monkeypatch):
     """The eigen solve and the twelve geometric-stiffness load cases share one
     factorisation of the clamped stiffness (a 500 k DOF link's takes minutes; the load
     cases made two more)."""
-    import pipeline.modes.clamp as clamp
-    import pipeline.modes.eigen as eigen
+    from pipeline.modes import clamp, eigen
 
     calls = []
     real = clamp.factorize

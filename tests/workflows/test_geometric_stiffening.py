@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from link_samples import beam_spec
+from link_samples import beam_spec, solid_bar_spec
 from scipy.integrate import solve_ivp
 
 from pipeline.core.errors import ConfigError
@@ -383,18 +383,8 @@ def test_spinning_blade_axial_force_is_the_centrifugal_one(tmp_path):
 
 SOLID_L, SOLID_B, SOLID_H = 0.5, 0.01, 0.02  # bending in the pin plane uses B (along y)
 
-SOLID_ROD = f"""\
-name: rod
-geometry: {{type: solid, recipe: bar, params: {{L: {SOLID_L}, b: {SOLID_B}, h: {SOLID_H}}},
-           mesh_size: 0.005, order: 2}}
-material: {{E: {ROD_E}, nu: 0.3, rho: {RHO}}}
-interfaces:
-  - {{name: A, selector: {{type: group, name: end_x0}}, origin: [0, 0, 0], z_axis: [0, 0, 1]}}
-  - {{name: B, selector: {{type: group, name: end_xL}}, origin: [{SOLID_L}, 0, 0],
-     z_axis: [0, 0, 1]}}
-reference: A
-modes: {{count: 10}}
-"""
+SOLID_ROD = solid_bar_spec("rod", SOLID_L, SOLID_B, SOLID_H, mesh_size=0.005, E=ROD_E,
+                           rho=RHO, ends=("A", "B"), modes="{count: 10}")
 
 
 def test_p2_solid_rod_frequency_follows_its_axial_load(tmp_path):
