@@ -19,8 +19,8 @@ from pipeline.core.errors import ConfigError
 from pipeline.dynamics.system import BodyMass
 from pipeline.kinematics.links import Link, link_from_frames
 
-__all__ = ["PLANES", "body_from_reduced", "in_plane_modes", "link_from_reduced",
-           "modal_damping", "project_on_plane", "select_modes"]
+__all__ = ["PLANES", "FrameView", "body_from_reduced", "frame_views", "in_plane_modes",
+           "link_from_reduced", "modal_damping", "project_on_plane", "select_modes"]
 
 #: out-of-plane motion per plane of the body frame: (translation axis, rotation axes)
 PLANES = {"xy": (2, (0, 1)), "yz": (0, (1, 2)), "xz": (1, (0, 2))}
@@ -143,12 +143,36 @@ def body_from_reduced(reduced, modes: Sequence[int] | None = None, *, damping_ra
                     Cpp=reduced.Cpp[np.ix_(idx, idx)].copy(), stiffness=K.copy(), damping=D)
 
 
-class _FrameView:
-    def __init__(self, name, pose, phi, psi):
-        self.name, self.pose, self.phi, self.psi = name, pose, phi, psi
+class FrameView:
+    """A frame as :func:`pipeline.kinematics.links.link_from_frames` takes it: name, pose
+    (4, 4), phi, psi (k, 3) and hess (k, k, 3) or None."""
+
+    def __init__(self, name, pose, phi, psi, hess=None):
+        self.name, self.pose, self.phi, self.psi, self.hess = name, pose, phi, psi, hess
 
 
-def _attached(reduced, idx, new: str, base: str, local) -> _FrameView:
+def frame_views(reduced, idx, plane: str | None = None, second_order: bool = False
+                ) -> list[FrameView]:
+    """The reduced link's frames restricted to the kept modes ``idx``: with their
+    second-order translations (``second_order``, geometric stiffening; None if the
+    artifact has none), the reference's rotation left out under a chord reference (its
+    frame is the chord's, a pin), and projected on ``plane``."""
+    H = reduced.frame_hessians(idx) if second_order and len(idx) else None
+    views = []
+    for i, f in enumerate(reduced.frames):
+        phi, psi = np.array(f.phi)[list(idx)], np.array(f.psi)[list(idx)]
+        if reduced.chord is not None and i == 0:
+            psi = np.zeros_like(psi)
+        hess = None if H is None else H[i].copy()
+        if plane is not None:  # the planar loops cannot follow residual out-of-plane motion
+            phi, psi = project_on_plane(phi, psi, plane)
+            if hess is not None:
+                hess[..., _plane(plane)[0]] = 0.0
+        views.append(FrameView(f.name, np.array(f.pose, dtype=float), phi, psi, hess))
+    return views
+
+
+def _attached(reduced, idx, new: str, base: str, local) -> FrameView:
     """Frame rigidly attached to frame ``base`` at ``local`` (4, 4) in its axes.
 
     First order, like the shape matrix: the new origin moves by
@@ -165,11 +189,12 @@ def _attached(reduced, idx, new: str, base: str, local) -> _FrameView:
     pose = f.pose @ local
     psi = np.asarray(f.psi)[idx]
     phi = np.asarray(f.phi)[idx] + np.cross(psi, f.pose[:3, :3] @ local[:3, 3])
-    return _FrameView(new, pose, phi, psi)
+    return FrameView(new, pose, phi, psi)
 
 
 def link_from_reduced(reduced, modes: Sequence[int] | None = None, name: str | None = None,
-                      frames=None, plane: str | None = None) -> Link:
+                      frames=None, plane: str | None = None, second_order: bool = False
+                      ) -> Link:
     """Kinematics Link with the ReducedLink's frames and the kept modes' phi/psi.
 
     Parameters
@@ -182,13 +207,14 @@ def link_from_reduced(reduced, modes: Sequence[int] | None = None, name: str | N
         bar whose interface frame has z along the bar).
     plane : "xy", "yz" or "xz": the frames' modal motion projected on that plane of the
         body frame (:func:`project_on_plane`), as for a planar loop.
+    second_order : the frames' second-order translations (a link reduced with geometric
+        stiffening): the forces at them stiffen its modes (:func:`frame_views`).
     """
     idx = select_modes(reduced.n_modes, modes, reduced.name)
-    views = [_FrameView(f.name, f.pose, np.asarray(f.phi)[idx], np.asarray(f.psi)[idx])
-             for f in reduced.frames]
-    views += [_attached(reduced, idx, k, base, local)
-              for k, (base, local) in (frames or {}).items()]
+    extra = [_attached(reduced, idx, k, base, local)
+             for k, (base, local) in (frames or {}).items()]
     if plane is not None:
-        for v in views:
+        for v in extra:
             v.phi, v.psi = project_on_plane(v.phi, v.psi, plane)
-    return link_from_frames(name or reduced.name, views)
+    return link_from_frames(name or reduced.name,
+                            frame_views(reduced, idx, plane, second_order) + extra)

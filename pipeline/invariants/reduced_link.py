@@ -129,6 +129,26 @@ class ReducedLink:
         S = self.C[:3, :3] - self.mass * np.outer(c, c)
         return np.trace(S) * np.eye(3) - S
 
+    @property
+    def chord(self) -> str | None:
+        """The far interface of a chord reference (``modes.chord``), else None: the
+        reference interface's frame is then the chord's (the line through the two pins),
+        not the end's."""
+        return (self.meta.get("reference_conditions") or {}).get("chord")
+
+    def frame_hessians(self, modes=None) -> np.ndarray | None:
+        """(F, m, m, 3) second derivatives of the frames' translations, d2r_f/deta_a
+        deta_b (m per modal unit^2, body axes, frames in order) of the kept ``modes``
+        (default all): ``-K_F,f,k`` of the unit force cases
+        (:mod:`pipeline.invariants.stiffening`); None without geometric stiffening."""
+        KF = np.asarray(self.force_geometric_stiffness, dtype=float)
+        if not KF.size:
+            return None
+        if modes is not None:
+            idx = list(modes)
+            KF = KF[:, :, idx][:, :, :, idx]
+        return -np.transpose(KF, (0, 2, 3, 1))
+
     def frame(self, name: str) -> FrameModes:
         """The frame called ``name``; KeyError lists the available ones."""
         for f in self.frames:

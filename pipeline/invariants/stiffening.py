@@ -14,7 +14,7 @@ linear modal kinematics leaves out: the centrifugal softening is already in C''_
 loads at its pins and markers). Beam links and P2 solids.
 
 The force cases double as the frames' **second-order kinematics**
-(:func:`frame_hessians`). A unit force along body axis k at frame f does, through the
+(:meth:`pipeline.invariants.reduced_link.ReducedLink.frame_hessians`). A unit force along body axis k at frame f does, through the
 second-order displacement of its point of application, the work that its prestress does
 through the nonlinear strain (virtual work with the Green-Lagrange strain; for a bar,
 the chord shortens by ``int w'^2 dx / 2``), so the frame's translation to second order is
@@ -110,18 +110,3 @@ def _projected(model, tied, basis, loads, what: str, problem=None) -> np.ndarray
         out[c] = 0.5 * (KG + KG.T)
     return out
 
-
-def frame_hessians(force_stiffness: np.ndarray, modes=None) -> np.ndarray:
-    """(F, m, m, 3) second derivatives of the frames' translations, d2r_f/deta_a deta_b, m
-    per modal unit^2, body axes: ``-K_F,f,k`` of the unit force cases (module docstring).
-
-    Parameters
-    ----------
-    force_stiffness : (F, 3, M, M) the artifact's ``force_geometric_stiffness``.
-    modes : the kept modes (default all M).
-    """
-    KF = np.asarray(force_stiffness, dtype=float)
-    if modes is not None:
-        idx = list(modes)
-        KF = KF[:, :, idx][:, :, :, idx]
-    return -np.transpose(KF, (0, 2, 3, 1))

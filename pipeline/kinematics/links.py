@@ -59,7 +59,7 @@ class Frame:
         its length shortens its chord as it bends: the second-order translation of a
         frame is what makes the forces acting there -- applied or transmitted by a joint
         -- stiffen (tension) or soften (compression) the modes, conservatively
-        (:func:`pipeline.invariants.stiffening.frame_hessians`).
+        (``ReducedLink.frame_hessians``).
     """
 
     name: str

@@ -18,10 +18,9 @@ from pydantic import ValidationError
 
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.dynamics import BodyMass, System, body_from_reduced
-from pipeline.dynamics.bodies import PLANES, in_plane_modes, project_on_plane
+from pipeline.dynamics.bodies import FrameView, frame_views, in_plane_modes
 from pipeline.dynamics.forces import FORCES, GeometricStiffening
 from pipeline.fem.geometric import centrifugal_tensor
-from pipeline.invariants.stiffening import frame_hessians
 from pipeline.kinematics import Joint, build_mechanism, evaluate_tree, rigid_link
 from pipeline.kinematics.drivers import driver_from_dict
 from pipeline.kinematics.initial import initial_positions, initial_velocities
@@ -66,13 +65,6 @@ class Machine:
     @property
     def mechanism(self):
         return self.system.mechanism
-
-
-class _View:
-    """Frame description accepted by link_from_frames (name, pose, phi, psi, hess)."""
-
-    def __init__(self, name, pose, phi, psi, hess=None):
-        self.name, self.pose, self.phi, self.psi, self.hess = name, pose, phi, psi, hess
 
 
 def frame_pose(f, where: str) -> np.ndarray:
@@ -183,26 +175,12 @@ def _selected(reduced, candidates: list[int], rule, plane) -> tuple[int, ...]:
 
 
 def _flex_frames(reduced, idx, plane, extra, where_frames, second_order: bool = False
-                 ) -> list[_View]:
-    """Frames of a reduced link restricted to the kept modes (projected on ``plane``),
-    plus extra frames fixed on existing ones (first order, like the shape matrix). With
-    ``second_order`` (geometric stiffening) the frames' translations carry their
-    second-order terms (:func:`pipeline.invariants.stiffening.frame_hessians`); an extra
-    frame takes those of the frame it is fixed on."""
-    views = {}
-    H = (frame_hessians(reduced.force_geometric_stiffness, idx)
-         if second_order and reduced.force_geometric_stiffness.size and idx else None)
-    chord = chord_reference(reduced)
-    for i, f in enumerate(reduced.frames):
-        phi, psi = np.array(f.phi)[list(idx)], np.array(f.psi)[list(idx)]
-        if chord is not None and i == 0:  # the reference's frame is the chord's (a pin)
-            psi = np.zeros_like(psi)
-        hess = None if H is None else H[i].copy()
-        if plane is not None:  # the planar loops cannot follow residual out-of-plane motion
-            phi, psi = project_on_plane(phi, psi, plane)
-            if hess is not None:
-                hess[..., PLANES[plane][0]] = 0.0
-        views[f.name] = _View(f.name, np.array(f.pose, dtype=float), phi, psi, hess)
+                 ) -> list[FrameView]:
+    """Frames of a reduced link restricted to the kept modes (projected on ``plane``; with
+    their second-order translations if ``second_order``: :func:`frame_views`), plus extra
+    frames fixed on existing ones (first order, like the shape matrix; an extra frame takes
+    the second-order terms of the frame it is fixed on)."""
+    views = {v.name: v for v in frame_views(reduced, idx, plane, second_order)}
     for new, fs in extra.items():
         if fs.on not in views:
             raise ConfigError(f"{where_frames}.{new}.on: expected one of {sorted(views)}, "
@@ -210,9 +188,9 @@ def _flex_frames(reduced, idx, plane, extra, where_frames, second_order: bool = 
         base = views[fs.on]
         local = frame_pose(fs, f"{where_frames}.{new}")
         pose = base.pose @ local
-        views[new] = _View(new, pose, base.phi + np.cross(base.psi, base.pose[:3, :3]
-                                                         @ local[:3, 3]), base.psi.copy(),
-                           base.hess)
+        views[new] = FrameView(new, pose, base.phi + np.cross(base.psi, base.pose[:3, :3]
+                                                             @ local[:3, 3]), base.psi.copy(),
+                               base.hess)
     return list(views.values())
 
 
@@ -292,13 +270,6 @@ def _split(wf: Workflow, value: str, *path) -> tuple[str, str]:
     return link, frame
 
 
-def chord_reference(reduced) -> str | None:
-    """The far interface of a reduced link with a chord reference (``modes.chord``), else
-    None. Its reference interface's frame is then the chord frame: it follows the line
-    through the two pins, not the elastic rotation of the end."""
-    return (reduced.meta.get("reference_conditions") or {}).get("chord")
-
-
 #: joints that leave the rotation of a link's end free about their axes, enough of it for
 #: a chord reference (the end rotates about the pin relative to the chord)
 PIN_JOINTS = ("revolute", "spherical")
@@ -307,7 +278,7 @@ PIN_JOINTS = ("revolute", "spherical")
 def build_joints(wf: Workflow, links, parts=None) -> list[Joint]:
     frames = {l.name: [f.name for f in l.frames] for l in links}
     chord_pins = {name: p.reduced.frames[0].name for name, p in (parts or {}).items()
-                  if chord_reference(p.reduced) is not None}
+                  if p.reduced.chord is not None}
     joints = []
     for i, j in enumerate(wf.spec.joints):
         sides = []

@@ -68,16 +68,13 @@ def test_centrifugal_stiffness_of_the_first_mode_is_euler_bernoulli(tmp_path, ki
 @pytest.mark.parametrize("kind", ["solid", "beam"])
 def test_tip_second_order_translation_is_the_chord_shortening(tmp_path, kind):
     """The unit tip-force case's geometric stiffness, read as the tip frame's second-order
-    translation (frame_hessians): bending in mode 1 pulls the tip back along the bar by
+    translation (ReducedLink.frame_hessians): bending in mode 1 pulls the tip back along the bar by
     int phi_1'^2 dx eta_1^2 / 2 (Euler-Bernoulli, within 1 %), and moves it not at all
     sideways at second order."""
-    from pipeline.invariants.stiffening import frame_hessians
-
     link = _reduce(tmp_path, kind)
     tip = np.abs(link.mode_shapes[:, np.argmax(link.nodes[:, 0])])
     a = int(np.argmax(tip[:, 1] > 10 * tip[:, 2]))
-    H = frame_hessians(link.force_geometric_stiffness)[[f.name for f in link.frames]
-                                                       .index("tip")]
+    H = link.frame_hessians()[[f.name for f in link.frames].index("tip")]
     assert H[a, a, 0] == pytest.approx(-_eb_shortening(), rel=0.01)
     assert np.abs(H[a, a, 1:]).max() < 1e-3 * abs(H[a, a, 0])
 

@@ -68,3 +68,23 @@ def test_chord_errors(bar):
         clamped_modes(tied, "A", n_modes=2, chord="A")
     with pytest.raises(ConfigError, match="'C'"):
         clamped_modes(tied, "A", n_modes=2, chord="C")
+
+
+def test_python_api_link_has_the_chord_frame_and_second_order_translations(tmp_path):
+    """link_from_reduced (the Python API) builds a chord link's frames as a workflow does:
+    the reference's frame does not turn with the end, and with ``second_order`` each
+    frame's translation carries -K_F of the unit force cases."""
+    from pipeline.dynamics import link_from_reduced
+
+    spec = tmp_path / "rod.yaml"
+    spec.write_text(beam_spec("rod", L, A=A, Iy=4 * IZ, Iz=IZ, J=4 * IZ, E=E, rho=RHO,
+                              element_size=0.025, ends=("A", "B"), interfaces=("A", "B"),
+                              modes="{count: 4, chord: B, geometric_stiffening: true}"))
+    red = reduce_spec(load_link_spec(spec), tmp_path, tmp_path / "links")[0]
+    link = link_from_reduced(red, [0, 2], second_order=True)
+    assert np.abs(link.frame("A").psi).max() == 0.0
+    assert np.abs(red.frame("A").psi).max() > 0  # the end itself turns
+    KF = red.force_geometric_stiffness[1][:, [0, 2]][:, :, [0, 2]]  # frame B
+    np.testing.assert_array_equal(link.frame("B").hess, -np.transpose(KF, (1, 2, 0)))
+    assert link.frame("B").hess[0, 0, 0] < 0  # bending shortens the chord
+    assert link_from_reduced(red, [0, 2]).frame("B").hess is None
