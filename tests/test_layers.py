@@ -60,3 +60,49 @@ def test_module_respects_layers(path):
             target = name.split(".")[1]
             assert target not in FORBIDDEN.get(sub, ()), \
                 f"{sub}/{path.name} imports pipeline.{target} against the layering"
+
+
+def _imported_modules(path: Path):
+    """Every ``pipeline`` name a module imports (``from a import b`` gives ``a.b``)."""
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            yield from (a.name for a in node.names if a.name.startswith("pipeline"))
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0 \
+                and node.module.startswith("pipeline"):
+            # resolved by the caller to the submodule ``a.b`` or else the module ``a``
+            yield from (f"{node.module}.{a.name}" for a in node.names)
+
+
+def _module_name(path: Path) -> str:
+    parts = ("pipeline",) + path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def test_no_import_cycles():
+    """No module imports, even inside a function, a module that imports it back (STYLE.md §4)."""
+    modules = {_module_name(p): p for p in _modules()}
+    graph = {}
+    for name, path in modules.items():
+        targets = set()
+        for imported in _imported_modules(path):
+            # ``from pipeline.a import b`` names module pipeline.a.b when that is a module
+            while imported and imported not in modules:
+                imported = imported.rpartition(".")[0]
+            if imported and imported != name:
+                targets.add(imported)
+        graph[name] = targets
+    cycles, state = [], {}
+
+    def visit(node, stack):
+        state[node] = "open"
+        for nxt in sorted(graph[node]):
+            if state.get(nxt) == "open":
+                cycles.append(stack[stack.index(nxt):] + [nxt])
+            elif nxt not in state:
+                visit(nxt, stack + [nxt])
+        state[node] = "done"
+
+    for name in sorted(graph):
+        if name not in state:
+            visit(name, [name])
+    assert not cycles, "import cycles: " + "; ".join(" -> ".join(c) for c in cycles)

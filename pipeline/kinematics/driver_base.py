@@ -126,7 +126,11 @@ class Constant(Driver):
 # --------------------------------------------------------------------------- sums
 @dataclass(frozen=True)
 class SumDriver(Driver):
-    """Sum of drivers: value, rate and acceleration add term by term."""
+    """Sum of drivers: value, rate and acceleration add term by term.
+
+    Its YAML form (``type: sum``, ``terms: [...]``) is read by
+    :func:`pipeline.kinematics.drivers.driver_from_dict`, which knows every term type.
+    """
 
     terms: tuple[Driver, ...]
     type_name: ClassVar[str] = "sum"
@@ -146,14 +150,3 @@ class SumDriver(Driver):
 
     def accel(self, t):
         return self._total(t, "accel")
-
-    @classmethod
-    def from_dict(cls, d: dict, where: str, base_dir: Path | None = None) -> SumDriver:
-        check_keys(d, {"terms"}, where)
-        terms = d.get("terms")
-        if not isinstance(terms, (list, tuple)) or not terms:
-            raise ConfigError(f"{where}.terms: expected a non-empty list of drivers, got {terms!r}")
-        from pipeline.kinematics.drivers import driver_from_dict  # registry lives there
-
-        return cls(tuple(driver_from_dict(x, f"{where}.terms[{i}]", base_dir)
-                         for i, x in enumerate(terms)))

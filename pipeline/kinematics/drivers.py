@@ -265,4 +265,16 @@ def driver_from_dict(d: dict, where: str = "driver", base_dir: str | Path | None
     kind = d.get("type")
     if kind not in DRIVERS:
         raise ConfigError(f"{where}.type: expected one of {sorted(DRIVERS)}, got {kind!r}")
-    return DRIVERS[kind].from_dict(d, where, None if base_dir is None else Path(base_dir))
+    base = None if base_dir is None else Path(base_dir)
+    if DRIVERS[kind] is SumDriver:  # a composite: its terms are drivers of any type
+        return _sum_from_dict(d, where, base)
+    return DRIVERS[kind].from_dict(d, where, base)
+
+
+def _sum_from_dict(d: dict, where: str, base_dir: Path | None) -> SumDriver:
+    check_keys(d, {"terms"}, where)
+    terms = d.get("terms")
+    if not isinstance(terms, (list, tuple)) or not terms:
+        raise ConfigError(f"{where}.terms: expected a non-empty list of drivers, got {terms!r}")
+    return SumDriver(tuple(driver_from_dict(x, f"{where}.terms[{i}]", base_dir)
+                           for i, x in enumerate(terms)))

@@ -23,7 +23,7 @@ import numpy as np
 
 from pipeline.core.errors import ConfigError, MeshError
 from pipeline.meshing.geo_scan import check_geo_script
-from pipeline.meshing.geometry import (
+from pipeline.meshing.recipe_params import (
     check_keys,
     check_plate_bores,
     parse_bent_plate,

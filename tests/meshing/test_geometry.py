@@ -4,9 +4,8 @@ import numpy as np
 import pytest
 
 from pipeline.core.errors import ConfigError
-from pipeline.meshing.geometry import (
-    BeamGeometry,
-    SolidGeometry,
+from pipeline.meshing.geometry import BeamGeometry, SolidGeometry
+from pipeline.meshing.recipe_params import (
     check_plate_bores,
     parse_bent_plate,
     parse_box_bores,
