@@ -125,7 +125,8 @@ def modal_damping(K: np.ndarray, Mm: np.ndarray, *, ratios=None, rayleigh=None,
 
 
 def body_from_reduced(reduced, modes: Sequence[int] | None = None, *, damping_ratios=None,
-                      rayleigh=None) -> BodyMass:
+                      rayleigh=None, second_order: bool = False, plane: str | None = None
+                      ) -> BodyMass:
     """BodyMass of a ReducedLink keeping ``modes`` (indices, default all).
 
     Parameters
@@ -134,13 +135,22 @@ def body_from_reduced(reduced, modes: Sequence[int] | None = None, *, damping_ra
     modes : kept mode indices (0-based), e.g. ``range(2)``.
     damping_ratios : (k,) ratio per kept mode, ordered by frequency.
     rayleigh : (alpha, beta) Rayleigh coefficients (1/s, s).
+    second_order : the second-order first moment of mass (a link reduced with geometric
+        stiffening; none if the artifact has none): accelerations of the link and
+        gravity stiffen its modes (:func:`pipeline.dynamics.mass_matrix.link_terms`).
+    plane : "xy", "yz" or "xz": a planar link, whose first moment keeps no second-order
+        part out of its plane (as its frames, :func:`frame_views`).
     """
     idx = select_modes(reduced.n_modes, modes, reduced.name)
     K = reduced.modal_stiffness[np.ix_(idx, idx)]
     Mm = reduced.modal_mass[np.ix_(idx, idx)]
     D = modal_damping(K, Mm, ratios=damping_ratios, rayleigh=rayleigh, link=reduced.name)
+    H = reduced.first_moment_hessian(idx) if second_order and len(idx) else None
+    if H is not None and plane is not None:
+        H[..., _plane(plane)[0]] = 0.0
     return BodyMass(C=np.array(reduced.C, dtype=float), Cp=reduced.Cp[idx].copy(),
-                    Cpp=reduced.Cpp[np.ix_(idx, idx)].copy(), stiffness=K.copy(), damping=D)
+                    Cpp=reduced.Cpp[np.ix_(idx, idx)].copy(), stiffness=K.copy(), damping=D,
+                    first_moment_hessian=np.zeros((0, 0, 3)) if H is None else H)
 
 
 class FrameView:

@@ -1,7 +1,8 @@
 """Gravity: generalised force Q_i = sum_g m_g G^T dR_g/dq_i and its potential (DESIGN §4).
 
 Only the first-moment columns enter: sum_g m_g (r_g + eta phi_g) = J(eta)[:, 3]
-and sum_g m_g phi_a,g = C'_a[3, :] (C'_a^T's fourth column).
+and its derivatives sum_g m_g phi_a,g = N_a(eta)[3, :] (C'_a[3, :] for linear modes; plus
+H_a eta with a second-order first moment, :func:`pipeline.dynamics.mass_matrix.link_terms`).
 
 Examples
 --------
@@ -39,9 +40,9 @@ def gravity_force(system, tree, q: np.ndarray, links=None) -> np.ndarray:
     D, J = stacked(tree, links, n)
     # (dA J[:, 3]) . g = tr(dA W^T) with W = g J[:, 3]^T
     Q = D @ (g[None, :, None] * J[:, None, :, 3]).reshape(-1)
-    for li, body, idx, _, _ in links:
+    for li, _, idx, _, N in links:
         if idx.size:
-            Q[idx] += (body.Cp[:, 3, :] @ tree.A[li].T) @ g
+            Q[idx] += (N[:, 3, :] @ tree.A[li].T) @ g
     return Q
 
 
@@ -59,7 +60,8 @@ def gravity_potential(system, tree, q: np.ndarray) -> float:
 def first_moments(system, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Link indices (B,) of the massive links and their first moments J(eta)[:, 3] (B, 4)
     (kg m, kg) at q (n,): C[:, 3] + sum_a eta_a (C'_a[:, 3] + C'_a[3, :])
-    + sum_ab eta_a eta_b C''_ab[:, 3], the fourth column of :func:`link_terms`' J."""
+    + sum_ab eta_a eta_b C''_ab[:, 3] (+ the second-order part, P2 holding it), the fourth
+    column of :func:`link_terms`' J."""
     li, C3, flexible = system.first_moment_data
     J3 = C3.copy()
     for b, idx, P1, P2 in flexible:

@@ -13,6 +13,21 @@ with J(eta) = C + sum eta_a (C'_a + C'_a^T) + sum eta_a eta_b C''_ab. dA
 carries the dependence of A_l on the modal coordinates of every upstream
 link (the terms the thesis drops), so M is exact for the kinematics' A_l.
 
+A link with geometric stiffening also carries the second-order part of its first
+moment of mass, s(eta) = int rho u2 dV = eta^T H eta / 2 (``first_moment_hessian``,
+body axes): its mass moves towards the reference as it bends. It is the mean of the
+second-order field, the part that couples to the translation of the body frame; its
+other moments are left out. In J and N_a it adds
+
+    J[:3, 3] = J[3, :3] += s(eta),   N_a[3, :3] += ds/deta_a = H_a eta
+
+and the velocity terms gain A s''|eta''=0 = A (eta'^T H eta') on the first-moment
+column. The kinetic energy then holds the cross term p' . d(A s)/dt of the body
+origin p with the moving mass, and gravity the potential -g . A s, so that an
+acceleration a of the body frame (or gravity) along the link stiffens its modes by
+sum_k (g - a)_k K_a,k (``K_a,k = -H[..., k]``, the unit acceleration cases) with the
+energy to match.
+
 Examples
 --------
 >>> import numpy as np
@@ -30,7 +45,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["all_link_terms", "link_terms", "mass_links", "mass_matrix", "modal_block", "stacked"]
+__all__ = ["all_link_terms", "first_moment_acceleration", "link_terms", "mass_links", "mass_matrix", "modal_block", "stacked"]
 
 
 def mass_links(system) -> tuple[tuple[int, object, np.ndarray], ...]:
@@ -54,7 +69,22 @@ def link_terms(body, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Ce = (eta @ Cp.reshape(m, 16)).reshape(4, 4)
     # J = C + sum_a eta_a (C'_a + C'_a^T) + sum_ab eta_a eta_b C''_ab
     J = body.C + Ce + Ce.T + (eta @ dN.reshape(m, 16)).reshape(4, 4)
-    return J, Cp + dN
+    N = Cp + dN
+    H = body.first_moment_hessian
+    if H.size:  # the second-order first moment s = eta^T H eta / 2 (module doc)
+        ds = np.einsum("abk,b->ak", H, eta)
+        s = 0.5 * (eta @ ds)
+        J[:3, 3] += s
+        J[3, :3] += s
+        N[:, 3, :3] += ds
+    return J, N
+
+
+def first_moment_acceleration(body, etad: np.ndarray) -> np.ndarray:
+    """(3,) s''|eta''=0 = eta'^T H eta' of a body's second-order first moment (body axes,
+    kg m/s^2), zeros without one (:func:`link_terms`)."""
+    H = body.first_moment_hessian
+    return np.einsum("abk,a,b->k", H, etad, etad) if H.size else np.zeros(3)
 
 
 def all_link_terms(system, q: np.ndarray) -> list[tuple]:

@@ -68,6 +68,11 @@ class BodyMass:
     stiffness : (m, m) modal stiffness, N m / (modal unit)^2.
     damping : (m, m) modal damping matrix (e.g. diag(2 zeta omega) for
         mass-normalised modes), N m s.
+    first_moment_hessian : (m, m, 3) H with the second-order part of the first moment of
+        mass, int rho u2 dV = eta^T H eta / 2 (body axes, kg m per modal unit^2), or
+        (0, 0, 3): none (linear modes). It is the mass moving towards the reference as
+        the link bends; with it, translational accelerations and gravity stiffen the
+        modes, conservatively (:func:`pipeline.dynamics.mass_matrix.link_terms`).
     """
 
     C: np.ndarray
@@ -75,6 +80,14 @@ class BodyMass:
     Cpp: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 4, 4)))
     stiffness: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     damping: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    first_moment_hessian: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+
+    def __post_init__(self) -> None:
+        H, m = np.asarray(self.first_moment_hessian, dtype=float), self.n_modes
+        if H.size and H.shape != (m, m, 3):
+            raise ConfigError(f"first_moment_hessian: expected shape ({m}, {m}, 3) for "
+                              f"{m} modes, got {H.shape}")
+        object.__setattr__(self, "first_moment_hessian", H if H.size else np.zeros((0, 0, 3)))
 
     @property
     def n_modes(self) -> int:
@@ -128,13 +141,13 @@ class System:
     @cached_property
     def first_moment_data(self) -> tuple[np.ndarray, np.ndarray, tuple]:
         """Link indices (B,), C[:, 3] (B, 4) of the massive links, and per flexible one
-        (position b, modal indices, C'_a[:, 3] + C'_a[3, :] (m, 4), C''_ab[:, 3] as (m, 4, m))
+        (position b, modal indices, C'_a[:, 3] + C'_a[3, :] (m, 4), C''_ab[:, 3] as (m, 4, m)
+        with the second-order first moment H / 2 added to its first three rows)
         for :func:`pipeline.dynamics.gravity.first_moments`."""
         links = self.mass_links
         li = np.array([item[0] for item in links], dtype=int)
         C3 = np.array([body.C[:, 3] for _, body, _ in links]).reshape(-1, 4)
-        flexible = tuple((b, idx, body.Cp[:, :, 3] + body.Cp[:, 3, :],
-                          body.Cpp[:, :, :, 3].transpose(0, 2, 1))
+        flexible = tuple((b, idx, body.Cp[:, :, 3] + body.Cp[:, 3, :], _quadratic_moment(body))
                          for b, (_, body, idx) in enumerate(links) if idx.size)
         return li, C3, flexible
 
@@ -156,3 +169,12 @@ class System:
         index = {name: mech.link_index(name) for name in self.bodies}
         return tuple((index[name], body, mech.modal_index[index[name]])
                      for name, body in self.bodies.items())
+
+
+def _quadratic_moment(body: BodyMass) -> np.ndarray:
+    """(m, 4, m) P2 with eta @ (P2 @ eta) the part of the first moment J(eta)[:, 3]
+    quadratic in eta: C''_ab[:, 3] and the second-order first moment H / 2."""
+    P2 = body.Cpp[:, :, :, 3].transpose(0, 2, 1).copy()
+    if body.first_moment_hessian.size:
+        P2[:, :3, :] += 0.5 * body.first_moment_hessian.transpose(0, 2, 1)
+    return P2

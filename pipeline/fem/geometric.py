@@ -13,7 +13,9 @@ The prestress comes from load cases solved on the FE model: :func:`centrifugal_l
 gives the consistent nodal loads of the six unit centrifugal cases of a link spinning
 with angular velocity w about a point o -- the body-force field
 ``rho (|w|^2 1 - w w^T)(r - o)``, linear in ``r`` and bilinear in w, so it is the sum of
-``w_i w_j`` times six unit fields (:data:`CENTRIFUGAL_CASES`). Units are SI.
+``w_i w_j`` times six unit fields (:data:`CENTRIFUGAL_CASES`).
+:func:`acceleration_loads` gives those of a uniform acceleration field (a translational
+acceleration of the link, or gravity) along each body axis. Units are SI.
 """
 
 from __future__ import annotations
@@ -36,7 +38,8 @@ from pipeline.fem.beam import (
 )
 from pipeline.fem.model import FemModel
 
-__all__ = ["CENTRIFUGAL_CASES", "beam_axial_forces", "beam_geometric_stiffness",
+__all__ = ["CENTRIFUGAL_CASES", "acceleration_loads", "beam_axial_forces",
+           "beam_geometric_stiffness",
            "centrifugal_fields", "centrifugal_loads", "centrifugal_products", "centrifugal_tensor",
            "solid_centrifugal_loads", "solid_modal_geometric_stiffness"]
 
@@ -132,6 +135,24 @@ def centrifugal_loads(model: FemModel, origin, axes=None) -> np.ndarray:
         f_loc = np.einsum("kab,kb->ka", m_trans, field.reshape(-1, 12))
         f_link = np.einsum("kip,kai->kap", frames, f_loc.reshape(-1, 4, 3)).reshape(-1, 12)
         np.add.at(out[c], elem_dofs, f_link)
+    return out
+
+
+def acceleration_loads(model: FemModel, axes=None) -> np.ndarray:
+    """(3, n_dof) consistent nodal loads of a unit uniform acceleration field along each
+    of ``axes`` (columns, (3, 3); default the link axes), N per m/s^2: the body force
+    rho e_k on every mass of the model, point masses included.
+
+    The consistent mass times the rigid translation e_k (zero rotations) is exactly the
+    consistent load of a uniform body force, for beams (with the moments a uniform load
+    puts on the Hermite nodes) and solids alike.
+    """
+    R = np.eye(3) if axes is None else np.asarray(axes, dtype=float)
+    out = np.zeros((3, model.n_dof))
+    for k in range(3):
+        field = np.zeros(model.n_dof)
+        field[model.node_dofs[:, :3]] = R[:, k]
+        out[k] = model.mass @ field
     return out
 
 

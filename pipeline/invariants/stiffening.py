@@ -33,6 +33,7 @@ import numpy as np
 from pipeline.core.progress import report
 from pipeline.fem.geometric import (
     CENTRIFUGAL_CASES,
+    acceleration_loads,
     beam_axial_forces,
     beam_geometric_stiffness,
     centrifugal_loads,
@@ -69,6 +70,24 @@ def centrifugal_stiffness(model: FemModel, tied: TiedModel, basis: ModalBasis,
         loads = solid_centrifugal_loads(model, body_pose[:3, 3], body_pose[:3, :3])
     out = _projected(model, tied, basis, loads, "centrifugal", problem)
     return out, {"cases": list(CENTRIFUGAL_CASES)}
+
+
+def acceleration_stiffness(model: FemModel, tied: TiedModel, basis: ModalBasis,
+                           body_pose: np.ndarray, problem: ClampedProblem | None = None
+                           ) -> np.ndarray:
+    """(3, m, m) geometric stiffness per unit uniform acceleration (m/s^2) along each body
+    axis: the prestress of the body force rho e_k on the link clamped as its modes are.
+
+    By virtual work it is also minus the Hessian of the link's first moment of mass: the
+    mass-weighted second-order displacement is ``int rho u2 dV = -eta^T K_a,k eta / 2``
+    along body axis k (a bent link's mass moves towards its reference). Held as
+    :meth:`pipeline.invariants.reduced_link.ReducedLink.first_moment_hessian`, it enters
+    the link's mass distribution, so that translational accelerations and gravity stiffen
+    or soften the modes with the kinetic and potential energy that go with it.
+    N m per m/s^2 per modal unit^2.
+    """
+    loads = acceleration_loads(model, body_pose[:3, :3])
+    return _projected(model, tied, basis, loads, "acceleration", problem)
 
 
 def frame_force_stiffness(model: FemModel, tied: TiedModel, basis: ModalBasis,

@@ -253,7 +253,9 @@ def build_links(wf: Workflow, cache_dir: Path, rebuild: bool = False):
                     red, list(idx), damping_ratios=None if d is None else (
                         d.ratios if d.ratios is not None else
                         ([d.ratio] * len(idx) if d.ratio is not None else None)),
-                    rayleigh=None if d is None else d.rayleigh)
+                    rayleigh=None if d is None else d.rayleigh,
+                    second_order=bool(getattr(entry, "geometric_stiffening", False)),
+                    plane=plane)
             except ConfigError as exc:
                 raise ConfigError(f"{where}: {exc}") from None
         else:

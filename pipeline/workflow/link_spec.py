@@ -137,8 +137,9 @@ class ModesSpec(Strict):
                           "it in translation and about the line to this interface, which moves "
                           "along that line only (a link pinned at both ends)")
     geometric_stiffening: bool = Field(
-        False, description="compute the geometric stiffness of the modes under their own spin and "
-                           "forces at their frames (beams, P2 solids), used when a workflow sets the link's geometric_stiffening")
+        False, description="compute the geometric stiffness of the modes under forces at their "
+                           "frames, uniform accelerations and their own spin (beams, P2 "
+                           "solids), used when a workflow sets the link's geometric_stiffening")
 
     @model_validator(mode="after")
     def _one_rule(self):

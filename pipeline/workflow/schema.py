@@ -172,9 +172,9 @@ class FlexibleLink(Strict):
         None, description="keep only modes moving in this plane of the body frame")
     damping: DampingSpec | None = None
     geometric_stiffening: bool = Field(
-        False, description="geometric stiffening of the modes by the link's own spin and "
-                           "the forces at its frames: computed with the reduction, "
-                           "applied in every analysis")
+        False, description="geometric stiffening of the modes by the forces at the link's "
+                           "frames, its own acceleration, gravity and its own spin: "
+                           "computed with the reduction, applied in every analysis")
     frames: dict[Name, FrameSpec] = Field(
         default_factory=dict, description="extra frames, each fixed `on` a spec frame")
 

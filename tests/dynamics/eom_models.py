@@ -10,7 +10,7 @@ T = 1/2 sum_g m_g |R_g'|^2 with R_g' by complex-step differentiation.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -104,10 +104,22 @@ class Model:
     masses: list
 
 
-def flexible_double_pendulum(seed=0, n_modes=3, k_scale=200.0, zeta=None, g=9.81):
+def moving_mass(A, H, eta):
+    """(2, 3) the points A [+-s(eta)] of a second-order first moment s = eta^T H eta / 2
+    (H (m, m, 3)): with masses +-1/2 they hold the kinetic energy p' . d(A s)/dt of the
+    link origin p with the moving mass, and the potential -g . A s, and nothing else
+    (|p' + c'|^2 - |p' - c'|^2 = 4 p' . c')."""
+    s = 0.5 * np.einsum("abk,a,b->k", H, eta, eta)
+    return np.array([s, -s]) @ A[:3, :3].T + A[:3, 3]
+
+
+def flexible_double_pendulum(seed=0, n_modes=3, k_scale=200.0, zeta=None, g=9.81,
+                             second_order=False):
     """Two flexible links in the x-y plane (gravity -y); joints about z.
 
-    Coordinates: j1.theta, j2.theta, link1.eta1..m, link2.eta1..m.
+    Coordinates: j1.theta, j2.theta, link1.eta1..m, link2.eta1..m. ``second_order``: each
+    link also has a random second-order first moment of mass (``first_moment_hessian``),
+    held in the hand-coded positions by the point pair of :func:`moving_mass`.
     """
     rng = np.random.default_rng(seed)
     L1, L2 = 1.0, 0.8
@@ -123,6 +135,17 @@ def flexible_double_pendulum(seed=0, n_modes=3, k_scale=200.0, zeta=None, g=9.81
             w = np.sqrt(np.diag(K) / np.diag(Mm))
             D = np.diag(2.0 * zeta * w * np.diag(Mm))
         bodies[name] = c.body(K, D)
+    hess = {}
+    if second_order and n_modes:
+        for name, body in bodies.items():
+            # like a bending link's: its mass moves back along x (negative definite, of
+            # the modal mass's size per metre), a little sideways
+            size = np.trace(np.einsum("abii->ab", body.Cpp)) / n_modes
+            P = rng.standard_normal((n_modes, n_modes))
+            H = 0.1 * size * rng.standard_normal((n_modes, n_modes, 3))
+            H[..., 0] = -0.5 * size * P @ P.T
+            hess[name] = 0.5 * (H + H.transpose(1, 0, 2))
+            bodies[name] = replace(body, first_moment_hessian=hess[name])
     if n_modes:
         l1 = flexible_link("link1", {"B": (translation([L1, 0, 0]), phiB, psiB)})
         l2 = flexible_link("link2", {"C": (translation([L2, 0, 0]), phiC, psiC)})
@@ -139,9 +162,13 @@ def flexible_double_pendulum(seed=0, n_modes=3, k_scale=200.0, zeta=None, g=9.81
         e1, e2 = q[2:2 + m], q[2 + m:2 + 2 * m]
         A1 = rz(q[0])
         A2 = A1 @ shape(np.array([L1, 0, 0]), phiB, psiB, e1) @ rz(q[1])
-        return [points(A1, c1, e1), points(A2, c2, e2)]
+        out = [points(A1, c1, e1), points(A2, c2, e2)]
+        if hess:
+            out += [moving_mass(A1, hess["link1"], e1), moving_mass(A2, hess["link2"], e2)]
+        return out
 
-    return Model(system, positions, [c1.m, c2.m])
+    pair = [np.array([0.5, -0.5])] * (2 if hess else 0)
+    return Model(system, positions, [c1.m, c2.m] + pair)
 
 
 def flexible_four_bar(seed=1, n_modes=3, a=1.0, b=2.2, c=2.0, d=2.5):

@@ -17,8 +17,9 @@ def _drift(r):
     return float(np.abs(E - E[0]).max() / np.abs(r.energies["kinetic"]).max())
 
 
-def test_kinetic_energy_equals_half_qd_M_qd():
-    s = flexible_double_pendulum().system
+@pytest.mark.parametrize("second_order", [False, True])
+def test_kinetic_energy_equals_half_qd_M_qd(second_order):
+    s = flexible_double_pendulum(second_order=second_order).system
     rng = np.random.default_rng(5)
     q, qd = rng.standard_normal(s.mechanism.n), rng.standard_normal(s.mechanism.n)
     M = equation_terms(s, q, qd, 0.0).M
@@ -26,8 +27,12 @@ def test_kinetic_energy_equals_half_qd_M_qd():
     assert abs(T - 0.5 * qd @ M @ qd) <= 1e-13 * abs(T)
 
 
-def test_flexible_double_pendulum_conserves_energy_from_horizontal():
-    s = flexible_double_pendulum(n_modes=3).system
+@pytest.mark.parametrize("second_order", [False, True])
+def test_flexible_double_pendulum_conserves_energy_from_horizontal(second_order):
+    """Also with links whose mass moves towards their reference as they bend (their
+    second-order first moment: geometric stiffening by accelerations and gravity, which
+    must come with its energy)."""
+    s = flexible_double_pendulum(n_modes=3, second_order=second_order).system
     q0 = np.zeros(s.mechanism.n)
     r = simulate(s, q0, q0, (0.0, 2.0), np.linspace(0, 2, 101), rtol=1e-10, atol=1e-10,
                  progress=False)

@@ -46,7 +46,10 @@ def _random_state(rng, model):
     return q, rng.standard_normal(mech.n) * 2.0, rng.standard_normal(mech.n) * 5.0
 
 
-MODELS = {"double_pendulum": flexible_double_pendulum, "four_bar": flexible_four_bar}
+MODELS = {"double_pendulum": flexible_double_pendulum, "four_bar": flexible_four_bar,
+          # links whose mass moves towards their reference as they bend (second-order first
+          # moment, geometric stiffening by accelerations and gravity)
+          "double_pendulum_second_order": lambda: flexible_double_pendulum(second_order=True)}
 
 
 @pytest.mark.parametrize("name", sorted(MODELS))

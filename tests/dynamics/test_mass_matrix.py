@@ -57,12 +57,14 @@ def test_downstream_modal_coupling_is_kept():
 
 def test_compiled_inertia_terms_equal_the_numpy_reference():
     """M, h and the gravity force of pipeline.dynamics.compiled against mass_matrix,
-    velocity_terms and gravity_force (flexible links upstream of others, random states)."""
+    velocity_terms and gravity_force (flexible links upstream of others, second-order first
+    moments, random states)."""
     from eom_models import flexible_four_bar
 
     from pipeline.dynamics.equations import equation_terms
 
-    for s in (flexible_double_pendulum(n_modes=3).system, flexible_four_bar(n_modes=2).system):
+    for s in (flexible_double_pendulum(n_modes=3).system, flexible_four_bar(n_modes=2).system,
+              flexible_double_pendulum(n_modes=3, second_order=True).system):
         rng = np.random.default_rng(4)
         for _ in range(3):
             q, qd = rng.uniform(-1, 1, s.mechanism.n), rng.normal(size=s.mechanism.n)

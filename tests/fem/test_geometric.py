@@ -135,3 +135,30 @@ def test_centrifugal_tensor_gives_the_same_stiffness_for_any_spin():
         np.testing.assert_allclose(np.einsum("i,j,ijab->ab", w, w, G),
                                    np.einsum("c,cab->ab", centrifugal_products(w), K),
                                    rtol=1e-12, atol=1e-12)
+
+
+def test_acceleration_loads_carry_the_mass_and_its_moment():
+    """A unit acceleration along each axis: the loads add up to the link's mass along that
+    axis, point masses included, with the moment of the mass about the origin; on the
+    clamped bar along x they make the axial force rho A (L - x) (N per m/s^2)."""
+    from pipeline.fem.geometric import acceleration_loads
+    from pipeline.fem.point_masses import PointMass, add_point_masses
+
+    d = np.array([1.0, 2.0, -0.5]) / np.linalg.norm([1.0, 2.0, -0.5])
+    bare = _model(d)
+    tip = 0.3
+    model = add_point_masses(bare, [PointMass("lump", L * d, tip)], "bar")
+    mass = RHO * A * L + tip
+    xc = (RHO * A * L * L / 2 + tip * L) / mass * d
+    f = acceleration_loads(model)
+    for k in range(3):
+        forces = f[k][model.node_dofs[:, :3]]
+        moments = f[k][model.node_dofs[:, 3:]]
+        np.testing.assert_allclose(forces.sum(axis=0), mass * np.eye(3)[k], atol=1e-12 * mass)
+        moment = np.cross(model.nodes, forces).sum(axis=0) + moments.sum(axis=0)
+        np.testing.assert_allclose(moment, np.cross(mass * xc, np.eye(3)[k]), atol=1e-12 * mass)
+    axial = acceleration_loads(_model(), np.eye(3))[0]
+    x = _model().nodes[:, 0]
+    N = beam_axial_forces(_model(), _clamped_solve(_model(), axial))
+    mid = 0.5 * (x[:-1] + x[1:])
+    np.testing.assert_allclose(N, RHO * A * (L - mid), rtol=1e-9)

@@ -10,7 +10,9 @@ the stiffening the linear modal kinematics miss (the centrifugal softening is al
 the mass invariants). Forces at the link's frames -- applied by force elements or
 transmitted by joints, such as the axial force of a connecting rod between two pins --
 are not this element's business: they stiffen the modes through the frames'
-second-order translations (``Frame.hess``), conservatively. (The consistent Lagrangian
+second-order translations (``Frame.hess``), conservatively; nor are the link's own
+translational acceleration and gravity, which do it through its second-order first
+moment of mass (``BodyMass.first_moment_hessian``). (The consistent Lagrangian
 term for the spin, the inertia of the foreshortened link, would add O(eta^2) terms to
 the mass matrix and the velocity terms, left out as in the usual linear
 stress-stiffening formulations.)
