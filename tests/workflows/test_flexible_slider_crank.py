@@ -1,0 +1,190 @@
+"""A fast slider-crank with a flexible connecting rod, against an independent nonlinear
+model: the reported case where the linear modal rod deflected 12-14 % too much.
+
+Crank 0.15 m, rod 0.3 m of 10 mm round steel (first pinned-pinned bending 220 Hz), a
+1 kg piston; the crank is spun up by the smooth law to 150 rad/s over 0.1 s and held
+there. The rod's axial force (up to a third of its Euler load, from the piston's and its
+own inertia) changes its bending stiffness along the stroke.
+
+Independent reference, written here by hand: the rod as a chain of N rigid segments
+joined by rotary springs EI/h and dashpots (the finite segment model; geometrically
+exact, so it has every stiffening the beam has), its mass lumped at the joints, the
+crank pin's path prescribed and the piston end held on the line of stroke by a Lagrange
+multiplier; integrated by scipy's Radau at N = 12 and 24 and extrapolated in h^2. The
+quantity compared is the rod's mid-span deflection from its chord.
+
+The pipeline's rod comes from the other side: gmsh line mesh, Hermite beam FE, modes with
+the chord reference (pinned at both ends) or clamped at the crank pin, the 4x4
+multibody equations of the closed loop with the rod's geometric stiffening (the
+second-order frames carry the pin forces, the second-order first moment its own
+acceleration). Both have stiffness-proportional damping, 2 % in the first mode.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from link_samples import beam_spec
+from scipy.integrate import solve_ivp
+
+from pipeline.kinematics.drivers import SpinUp
+from pipeline.workflow import build_machine, load_workflow
+from pipeline.workflow.analyses import run_analysis
+from pipeline.workflow.series import marker_positions
+
+pytestmark = pytest.mark.gmsh
+
+R, L, D = 0.15, 0.3, 0.010  # crank, rod length, rod diameter, m
+E, RHO, PISTON = 2.1e11, 7850.0, 1.0
+A, I = np.pi * D ** 2 / 4, np.pi * D ** 4 / 64
+RATE, T_RAMP, T_END = 150.0, 0.1, 0.25
+# stiffness-proportional damping: 2 % of critical in the first pinned-pinned mode
+BETA = float(2 * 0.02 / ((np.pi / L) ** 2 * np.sqrt(E * I / (RHO * A))))
+TIMES = np.linspace(0.0, T_END, 501)
+
+ROD = beam_spec("rod", L, A=A, Iy=I, Iz=I, J=2 * I, E=E, rho=RHO, element_size=0.01,
+                ends=("A", "B"), interfaces=("A", "B"), markers={"mid": L / 2},
+                modes="{count: 8, chord: B}")
+
+WORKFLOW = f"""\
+name: slider_crank
+gravity: [0, 0, 0]
+links:
+  ground:
+    type: ground
+    frames:
+      O: {{origin: [0, 0, 0]}}
+      S: {{origin: [{R + L}, 0, 0], z: [1, 0, 0], x: [0, 1, 0]}}
+  crank:
+    type: rigid
+    mass: 1.0
+    com: [{R / 2}, 0, 0]
+    inertia: [1.0e-3, 1.0e-3, 1.0e-3, 0, 0, 0]
+    frames:
+      O: {{origin: [0, 0, 0]}}
+      P: {{origin: [{R}, 0, 0]}}
+  rod: {{type: flexible, spec: rod.yaml, modes: 3, plane: xy, geometric_stiffening: true,
+         damping: {{rayleigh: [0.0, {BETA!r}]}}}}
+  piston:
+    type: rigid
+    mass: {PISTON}
+    com: [0, 0, 0]
+    inertia: [1.0e-6, 1.0e-6, 1.0e-6, 0, 0, 0]
+    frames:
+      S: {{origin: [0, 0, 0], z: [1, 0, 0], x: [0, 1, 0]}}
+      B: {{origin: [0, 0, 0]}}
+joints:
+  - {{name: crank, type: revolute, parent: ground.O, child: crank.O}}
+  - {{name: JA, type: revolute, parent: crank.P, child: rod.A}}
+  - {{name: stroke, type: prismatic, parent: ground.S, child: piston.S}}
+  - {{name: JB, type: revolute, parent: piston.B, child: rod.B}}
+drivers:
+  crank.theta: {{type: spin_up, t1: {T_RAMP}, rate: {RATE}}}
+analyses:
+  - name: run
+    type: dynamic
+    t_end: {T_END}
+    outputs: {TIMES.size}
+"""
+
+
+def segment_chain(n: int, t: np.ndarray) -> np.ndarray:
+    """Mid-span deflection from the chord (m) of the finite-segment rod at the times t (s),
+    n (even) segments of length h: angles th (n,), joint k at
+    p_k = p_A(t) + h sum_{i<k} (cos th_i, sin th_i); masses rho A h at the joints (half
+    at the crank pin, half plus the piston at the far end); rotary springs EI/h and
+    dashpots BETA EI/h between segments; the far end held at y = 0."""
+    h = L / n
+    m = np.full(n + 1, RHO * A * h)
+    m[0] *= 0.5
+    m[-1] = 0.5 * RHO * A * h + PISTON
+    outboard = np.cumsum(m[::-1])[::-1][1:]  # mass beyond segment i: joints i+1..n
+    MU = outboard[np.maximum.outer(np.arange(n), np.arange(n))]
+    K = np.zeros((n, n))
+    for i in range(n - 1):
+        K[i:i + 2, i:i + 2] += E * I / h * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    crank = SpinUp(T_RAMP, RATE)
+
+    def rhs(tt, y):
+        th, om = y[:n], y[n:]
+        phi, dphi, ddphi = crank.state(tt)
+        acc = R * np.array([-np.sin(phi) * ddphi - np.cos(phi) * dphi ** 2,
+                            np.cos(phi) * ddphi - np.sin(phi) * dphi ** 2])  # crank pin
+        c, s = np.cos(th), np.sin(th)
+        d = th[None, :] - th[:, None]  # th_j - th_i
+        # sum_k m_k (dp_k/dth_i) . p_k'' = generalized spring, dashpot and end forces
+        M = h * h * MU * np.cos(d)
+        f = (-K @ (th + BETA * om) - h * outboard * (-s * acc[0] + c * acc[1])
+             + h * h * (MU * np.sin(d)) @ om ** 2)
+        G = h * c  # d(y_n)/dth
+        kkt = np.zeros((n + 1, n + 1))
+        kkt[:n, :n], kkt[:n, n], kkt[n, :n] = M, -G, G
+        sol = np.linalg.solve(kkt, np.r_[f, -acc[1] + h * np.sum(s * om ** 2)])
+        return np.r_[om, sol[:n]]
+
+    sol = solve_ivp(rhs, (t[0], t[-1]), np.zeros(2 * n), t_eval=t, method="Radau",
+                    rtol=1e-8, atol=1e-10)
+    assert sol.success, sol.message
+    th = sol.y[:n]
+    seg = h * np.array([np.cos(th), np.sin(th)])
+    mid, chord = seg[:, :n // 2].sum(axis=1), seg.sum(axis=1)
+    return (chord[0] * mid[1] - chord[1] * mid[0]) / np.linalg.norm(chord, axis=0)
+
+
+@pytest.fixture(scope="module")
+def reference():
+    """(coarse, fine, extrapolated) mid-span deflections: N = 12, 24 and Richardson."""
+    coarse, fine = segment_chain(12, TIMES), segment_chain(24, TIMES)
+    return coarse, fine, (4 * fine - coarse) / 3
+
+
+def _run(folder, *sets, spec: str = ROD):
+    """The run and the rod's mid-span deflection from its chord (m) at TIMES."""
+    (folder / "rod.yaml").write_text(spec)
+    (folder / "wf.yaml").write_text(WORKFLOW)
+    m = build_machine(load_workflow(folder / "wf.yaml", sets=list(sets)), folder / "links")
+    r = run_analysis(m, "run")
+    P = {f: marker_positions(m.mechanism, r.q, "rod", f) for f in ("A", "B", "mid")}
+    chord = P["B"] - P["A"]
+    chord /= np.linalg.norm(chord, axis=1)[:, None]
+    rel = P["mid"] - P["A"]
+    return r, chord[:, 0] * rel[:, 1] - chord[:, 1] * rel[:, 0]
+
+
+def test_the_reference_converges(reference):
+    """The segment model at N = 12 and 24 differs by 0.7 % of the peak (1.1 mm): in h^2,
+    the extrapolated history is good to about 0.05 %."""
+    coarse, fine, best = reference
+    peak = np.abs(best).max()
+    assert 1.0e-3 < peak < 1.2e-3
+    assert np.abs(fine - coarse).max() < 1e-2 * peak
+
+
+def test_rod_deflection_matches_the_finite_segment_model(tmp_path, reference):
+    """Three in-plane chord modes with geometric stiffening: the mid-span deflection history
+    within 0.5 % of the peak (measured 0.05 %, 2-core machine), and the run says ok."""
+    r, mid = _run(tmp_path)
+    assert r.success and r.verdict == "ok", r.message
+    best = reference[2]
+    assert np.abs(mid - best).max() < 5e-3 * np.abs(best).max()
+
+
+def test_without_stiffening_the_rod_deflects_too_much(tmp_path, reference):
+    """The reported failure: the linear modal rod peaks 19 % too high (the piston's
+    compression softens it, its tension no longer stiffens it) and is 30 % off at worst."""
+    _, mid = _run(tmp_path, "links.rod.geometric_stiffening=false")
+    best = reference[2]
+    assert np.abs(mid).max() > 1.1 * np.abs(best).max()
+    assert np.abs(mid - best).max() > 0.2 * np.abs(best).max()
+
+
+@pytest.mark.slow
+def test_modes_clamped_at_the_crank_pin_converge_to_it_too(tmp_path, reference):
+    """Modes clamped at the crank pin (the body frame tangent to the rod there), five of
+    them: within 1 % of the peak (measured 0.6 %). Without the second-order first moment
+    (the rod's own axial inertia) this was 2.6 %."""
+    clamped = ROD.replace("modes: {count: 8, chord: B}", "modes: {count: 12}")
+    r, mid = _run(tmp_path, "links.rod.modes=5", spec=clamped)
+    assert r.success and r.verdict == "ok", r.message
+    best = reference[2]
+    assert np.abs(mid - best).max() < 1e-2 * np.abs(best).max()
