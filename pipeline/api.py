@@ -17,7 +17,9 @@ Mechanism (kinematics)
 Dynamics
     :class:`System`, :class:`BodyMass`, :func:`body_from_reduced`; force elements
     :class:`SpringDamper`, :class:`JointSpringDamper`, :class:`PointForce`,
-    :class:`Torque`, :class:`ForceCylinder`, :class:`GeometricStiffening`; analyses :func:`static_equilibrium`,
+    :class:`Torque`, :class:`ForceCylinder` (geometric stiffening is in the links:
+    ``body_from_reduced(..., second_order=True)``, ``link_from_reduced(...,
+    second_order=True)``); analyses :func:`static_equilibrium`,
     :func:`kinetostatics` (with joint reactions), :func:`simulate` (checked transient:
     ``result.verdict``), :func:`vibration_modes`, :func:`marker_motion`.
 Results
@@ -53,7 +55,6 @@ from pipeline.dynamics import (
 )
 from pipeline.dynamics.forces.loads import ForceCylinder, PointForce, Torque
 from pipeline.dynamics.forces.springs import JointSpringDamper, SpringDamper
-from pipeline.dynamics.forces.stiffening import GeometricStiffening
 from pipeline.fem.stress import principal_stresses, von_mises
 from pipeline.invariants.participation import effective_mass_fractions
 from pipeline.invariants.reduced_link import ReducedLink
@@ -97,8 +98,7 @@ def reduce_link(spec: str | Path, cache_dir: str | Path = "output/links",
 
 
 __all__ = [
-    "JOINTS", "BodyMass", "Constant", "Curve", "ForceCylinder", "GeometricStiffening",
-    "Harmonic", "Joint", "JointSpringDamper", "Limits", "LinkShape", "Panel", "Picture",
+    "JOINTS", "BodyMass", "Constant", "Curve", "ForceCylinder", "Harmonic", "Joint", "JointSpringDamper", "Limits", "LinkShape", "Panel", "Picture",
     "PointForce", "Ramp", "ReducedLink", "SimulationResult", "SmoothStep", "SpringDamper",
     "Style", "System", "Table", "Torque", "animate_machine", "body_from_reduced",
     "build_machine", "build_mechanism", "dof_report", "effective_mass_fractions", "energies",

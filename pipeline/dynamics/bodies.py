@@ -135,22 +135,22 @@ def body_from_reduced(reduced, modes: Sequence[int] | None = None, *, damping_ra
     modes : kept mode indices (0-based), e.g. ``range(2)``.
     damping_ratios : (k,) ratio per kept mode, ordered by frequency.
     rayleigh : (alpha, beta) Rayleigh coefficients (1/s, s).
-    second_order : the second-order first moment of mass (a link reduced with geometric
-        stiffening; none if the artifact has none): accelerations of the link and
+    second_order : the second-order mass moments (a link reduced with geometric
+        stiffening; none if the artifact has none): the link's accelerations, spin and
         gravity stiffen its modes (:func:`pipeline.dynamics.mass_matrix.link_terms`).
-    plane : "xy", "yz" or "xz": a planar link, whose first moment keeps no second-order
-        part out of its plane (as its frames, :func:`frame_views`).
+    plane : "xy", "yz" or "xz": a planar link, whose mass keeps no second-order motion
+        out of its plane (as its frames, :func:`frame_views`).
     """
     idx = select_modes(reduced.n_modes, modes, reduced.name)
     K = reduced.modal_stiffness[np.ix_(idx, idx)]
     Mm = reduced.modal_mass[np.ix_(idx, idx)]
     D = modal_damping(K, Mm, ratios=damping_ratios, rayleigh=rayleigh, link=reduced.name)
-    H = reduced.first_moment_hessian(idx) if second_order and len(idx) else None
-    if H is not None and plane is not None:
-        H[..., _plane(plane)[0]] = 0.0
+    G = reduced.second_order_moments(idx) if second_order and len(idx) else None
+    if G is not None and plane is not None:
+        G[..., _plane(plane)[0]] = 0.0
     return BodyMass(C=np.array(reduced.C, dtype=float), Cp=reduced.Cp[idx].copy(),
                     Cpp=reduced.Cpp[np.ix_(idx, idx)].copy(), stiffness=K.copy(), damping=D,
-                    first_moment_hessian=np.zeros((0, 0, 3)) if H is None else H)
+                    second_order_moments=np.zeros((0, 0, 4, 3)) if G is None else G)
 
 
 class FrameView:

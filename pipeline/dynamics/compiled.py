@@ -15,8 +15,9 @@ Per link l with modal coordinates eta (m,) and rates eta':
     h_a += A : (A'' N_a + 2 A' G_a^T)
     Q_i += dA_i : (g J[:, 3]^T),  Q_a += (N_a[3, :] A^T) g
 
-with a link's second-order first moment H (zeros for linear modes): J[:3, 3] = J[3, :3]
-+= eta^T H eta / 2, N_a[3, :3] += H_a eta, and h_i += dA_i[:, 3] . A (eta'^T H eta')
+with a link's second-order mass moments G (zeros for linear modes), S = sum eta_a eta_b
+G_ab / 2: J[:, :3] += S, J[:3, :] += S^T, N_a[:, :3] += sum_b G_ab eta_b, and
+h_i += dA_i : (A[:, :3] S''^T), S'' = sum eta'_a eta'_b G_ab
 (:func:`pipeline.dynamics.mass_matrix.link_terms`).
 """
 
@@ -38,8 +39,8 @@ class CompiledMasses:
     """Mass data of the B massive links, padded to MM modes.
 
     link (B,) link index; n_modes (B,); idx (B, MM) modal coordinates in q;
-    C (B, 4, 4); Cp (B, MM, 4, 4); Cpp (B, MM, MM, 4, 4); H (B, MM, MM, 3) the
-    second-order first moments (zeros where a link has none).
+    C (B, 4, 4); Cp (B, MM, 4, 4); Cpp (B, MM, MM, 4, 4); G (B, MM, MM, 4, 3) the
+    second-order mass moments (zeros where a link has none).
     """
 
     link: np.ndarray
@@ -48,7 +49,7 @@ class CompiledMasses:
     C: np.ndarray
     Cp: np.ndarray
     Cpp: np.ndarray
-    H: np.ndarray
+    G: np.ndarray
 
 
 def compile_masses(system) -> CompiledMasses:
@@ -59,7 +60,7 @@ def compile_masses(system) -> CompiledMasses:
     out = CompiledMasses(np.zeros(B, dtype=np.int64), np.zeros(B, dtype=np.int64),
                          np.zeros((B, MM), dtype=np.int64), np.zeros((B, 4, 4)),
                          np.zeros((B, MM, 4, 4)), np.zeros((B, MM, MM, 4, 4)),
-                         np.zeros((B, MM, MM, 3)))
+                         np.zeros((B, MM, MM, 4, 3)))
     for b, (li, body, idx) in enumerate(links):
         m = body.n_modes
         out.link[b], out.n_modes[b] = li, m
@@ -67,8 +68,8 @@ def compile_masses(system) -> CompiledMasses:
         out.C[b] = body.C
         out.Cp[b, :m] = body.Cp
         out.Cpp[b, :m, :m] = body.Cpp
-        if body.first_moment_hessian.size:
-            out.H[b, :m, :m] = body.first_moment_hessian
+        if body.second_order_moments.size:
+            out.G[b, :m, :m] = body.second_order_moments
     return out
 
 
@@ -88,7 +89,7 @@ def inertia_terms(cm: CompiledMasses, tree, q: np.ndarray, qd: np.ndarray | None
                        np.ascontiguousarray(tree.A), np.ascontiguousarray(tree.dA),
                        np.ascontiguousarray(Ad), np.ascontiguousarray(Add),
                        gravity4, cm.link, cm.n_modes,
-                       cm.idx, cm.C, cm.Cp, cm.Cpp, cm.H)
+                       cm.idx, cm.C, cm.Cp, cm.Cpp, cm.G)
     return M, (h if rates else None), Qg
 
 
@@ -112,7 +113,7 @@ def _mmt_add(X, Y, c, out):
 
 
 @njit(cache=True)
-def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, H):
+def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G):
     n = q.shape[0]
     MM = Cp.shape[1]
     M = np.zeros((n, n))
@@ -148,17 +149,18 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, H):
                 N[a] += q[idx[b, c]] * Cpp[b, c, a]
         for a in range(m):
             J += q[idx[b, a]] * (N[a] - Cp[b, a])  # sum_ab eta_a eta_b C''_ba
-        # the second-order first moment: J[:3, 3] = J[3, :3] += eta^T H eta / 2,
-        # N_a[3, :3] += H_a eta
+        # the second-order mass moments: J += S + S^T (S = sum eta_a eta_b G_ab / 2 in
+        # the first three columns), N_a[:, :3] += sum_b G_ab eta_b
         for a in range(m):
             ea = q[idx[b, a]]
             for c in range(m):
                 ec = q[idx[b, c]]
-                for k in range(3):
-                    v = H[b, a, c, k] * ec
-                    N[a, 3, k] += v
-                    J[k, 3] += 0.5 * ea * v
-                    J[3, k] += 0.5 * ea * v
+                for j in range(4):
+                    for k in range(3):
+                        v = G[b, a, c, j, k] * ec
+                        N[a, j, k] += v
+                        J[j, k] += 0.5 * ea * v
+                        J[k, j] += 0.5 * ea * v
         Al = A[li]
         # M_ij += (dA_i J) : dA_j
         for ii in range(cnt):
@@ -208,14 +210,16 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, H):
             for c in range(m):
                 T1 += qd[idx[b, c]] * N[c]
             _mmt_add(Ad[li], T1, 2.0, Z)
-            # A s''|0 on the first-moment column, s''|0 = eta'^T H eta'
-            for k in range(3):
-                sk = 0.0
-                for a in range(m):
-                    for c in range(m):
-                        sk += H[b, a, c, k] * qd[idx[b, a]] * qd[idx[b, c]]
-                for r in range(3):
-                    Z[r, 3] += Al[r, k] * sk
+            # Z += A[:, :3] S''^T, S'' = sum eta'_a eta'_b G_ab
+            for j in range(4):
+                for k in range(3):
+                    sjk = 0.0
+                    for a in range(m):
+                        for c in range(m):
+                            sjk += G[b, a, c, j, k] * qd[idx[b, a]] * qd[idx[b, c]]
+                    if sjk != 0.0:
+                        for r in range(4):
+                            Z[r, j] += Al[r, k] * sjk
         for ii in range(cnt):
             h[nz[ii]] += _frob(dA[li, nz[ii]], Z)
         # h_a += A : (A'' N_a + 2 A' G_a^T),  G_a = sum_c C''_ac eta'_c
@@ -254,13 +258,13 @@ def closed_state(kin, masses: CompiledMasses, q_guess: np.ndarray, rows: np.ndar
                         np.ascontiguousarray(accels_cols, dtype=float), weights, tol, max_iter,
                         max_move, gravity4, kin.arrays(), masses.link,
                         masses.n_modes, masses.idx, masses.C, masses.Cp, masses.Cpp,
-                        masses.H)
+                        masses.G)
     return out[1:] if out[0] else None
 
 
 @njit(cache=True)
 def _closed_state(q, rows, dep, cols, rates_cols, accels_cols, weights, tol, max_iter,
-                  max_move, g, kin, link, m_modes, idx, C, Cp, Cpp, H):
+                  max_move, g, kin, link, m_modes, idx, C, Cp, Cpp, G):
     n = q.shape[0]
     nd, nc = dep.shape[0], cols.shape[0]
     qd = np.zeros(n)
@@ -329,7 +333,7 @@ def _closed_state(q, rows, dep, cols, rates_cols, accels_cols, weights, tol, max
         cacc[cols[c]] = accels_cols[c]
     for a in range(nd):
         cacc[dep[a]] = cd[a]
-    M, h, Qg = _kernel(q, qd, True, A, dA, Ad, Add, g, link, m_modes, idx, C, Cp, Cpp, H)
+    M, h, Qg = _kernel(q, qd, True, A, dA, Ad, Add, g, link, m_modes, idx, C, Cp, Cpp, G)
     return True, q, r, J, X, qd, cacc, A, dA, Ad, Add, M, h, Qg
 
 

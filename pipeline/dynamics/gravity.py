@@ -2,7 +2,7 @@
 
 Only the first-moment columns enter: sum_g m_g (r_g + eta phi_g) = J(eta)[:, 3]
 and its derivatives sum_g m_g phi_a,g = N_a(eta)[3, :] (C'_a[3, :] for linear modes; plus
-H_a eta with a second-order first moment, :func:`pipeline.dynamics.mass_matrix.link_terms`).
+G_ab[3] eta_b with second-order mass moments, :func:`pipeline.dynamics.mass_matrix.link_terms`).
 
 Examples
 --------

@@ -41,7 +41,7 @@ import numpy as np
 
 from pipeline.core.errors import ConfigError
 from pipeline.dynamics.equations import equations
-from pipeline.dynamics.mass_matrix import first_moment_acceleration, link_terms
+from pipeline.dynamics.mass_matrix import link_terms, second_order_acceleration
 from pipeline.dynamics.statics import (
     reduced_coordinates,
     static_equilibrium,
@@ -243,9 +243,8 @@ def _body_wrench(system, tree, q, qd, qdd, li, body) -> np.ndarray:
     Nd = np.tensordot(qd[idx], N.transpose(0, 2, 1), axes=1) if idx.size else 0.0 * J
     Ndd = np.tensordot(qdd[idx], N.transpose(0, 2, 1), axes=1) if idx.size else 0.0 * J
     X = Add @ J @ A.T + 2.0 * Ad @ Nd @ A.T + A @ Ndd @ A.T
-    if body.first_moment_hessian.size:  # the moving mass of a bending link: A s''|0 e4^T A^T
-        sdd = A[:3, :3] @ first_moment_acceleration(body, qd[idx])
-        X += np.outer(np.append(sdd, 0.0), A[:, 3])
+    if body.second_order_moments.size:  # the moving mass of a bending link: A u2''|0 xb^T A^T
+        X += A[:, :3] @ second_order_acceleration(body, qd[idx]).T @ A.T
     s = (A @ J[:, 3])[:3]
     g = system.gravity
     return np.concatenate([J[3, 3] * g - X[:3, 3], np.cross(s, g) - _vee(X[:3, :3] - X[:3, :3].T)])

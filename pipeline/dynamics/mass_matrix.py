@@ -13,20 +13,22 @@ with J(eta) = C + sum eta_a (C'_a + C'_a^T) + sum eta_a eta_b C''_ab. dA
 carries the dependence of A_l on the modal coordinates of every upstream
 link (the terms the thesis drops), so M is exact for the kinematics' A_l.
 
-A link with geometric stiffening also carries the second-order part of its first
-moment of mass, s(eta) = int rho u2 dV = eta^T H eta / 2 (``first_moment_hessian``,
-body axes): its mass moves towards the reference as it bends. It is the mean of the
-second-order field, the part that couples to the translation of the body frame; its
-other moments are left out. In J and N_a it adds
+A link with geometric stiffening also carries the second-order part of its mass
+moments, int rho xb u2^T dV = sum_ab eta_a eta_b G_ab / 2 (``second_order_moments``,
+xb = [x, y, z, 1] in body axes, u2 the second-order displacement): its mass moves
+towards the reference as it bends. Its moments up to the first in the body coordinates
+couple to the motion of the body frame; the rest (with the modes, O(eta) in the modal
+mass) is left out. With S(eta) = sum_ab eta_a eta_b G_ab / 2 (4, 3) it adds
 
-    J[:3, 3] = J[3, :3] += s(eta),   N_a[3, :3] += ds/deta_a = H_a eta
+    J[:, :3] += S,  J[:3, :] += S^T,   N_a[:, :3] += sum_b G_ab eta_b
 
-and the velocity terms gain A s''|eta''=0 = A (eta'^T H eta') on the first-moment
-column. The kinetic energy then holds the cross term p' . d(A s)/dt of the body
-origin p with the moving mass, and gravity the potential -g . A s, so that an
-acceleration a of the body frame (or gravity) along the link stiffens its modes by
-sum_k (g - a)_k K_a,k (``K_a,k = -H[..., k]``, the unit acceleration cases) with the
-energy to match.
+and the velocity terms gain A xb u2''|eta''=0, i.e. Z += A[:, :3] S''^T with
+S'' = sum_ab eta'_a eta'_b G_ab. These are Lagrange's equations of the kinetic energy
+with the cross term int rho (T' xb) . d(T u2)/dt of the rigid motion with the moving mass,
+and gravity gains -g . A u2's mean. An inertia field of the body frame -- the
+acceleration a of its origin, its spin, its angular acceleration, gravity -- then
+stiffens the modes by the geometric stiffness of that field (``G_ab[j, k] = -K_jk``, the
+unit inertia cases of :mod:`pipeline.invariants.stiffening`), with the energy to match.
 
 Examples
 --------
@@ -45,7 +47,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["all_link_terms", "first_moment_acceleration", "link_terms", "mass_links", "mass_matrix", "modal_block", "stacked"]
+__all__ = ["all_link_terms", "link_terms", "mass_links", "mass_matrix", "modal_block",
+           "second_order_acceleration", "stacked"]
 
 
 def mass_links(system) -> tuple[tuple[int, object, np.ndarray], ...]:
@@ -70,21 +73,21 @@ def link_terms(body, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     # J = C + sum_a eta_a (C'_a + C'_a^T) + sum_ab eta_a eta_b C''_ab
     J = body.C + Ce + Ce.T + (eta @ dN.reshape(m, 16)).reshape(4, 4)
     N = Cp + dN
-    H = body.first_moment_hessian
-    if H.size:  # the second-order first moment s = eta^T H eta / 2 (module doc)
-        ds = np.einsum("abk,b->ak", H, eta)
-        s = 0.5 * (eta @ ds)
-        J[:3, 3] += s
-        J[3, :3] += s
-        N[:, 3, :3] += ds
+    G = body.second_order_moments
+    if G.size:  # the second-order mass moments S = sum eta_a eta_b G_ab / 2 (module doc)
+        dS = np.einsum("abjk,b->ajk", G, eta)
+        S = 0.5 * np.einsum("a,ajk->jk", eta, dS)
+        J[:, :3] += S
+        J[:3, :] += S.T
+        N[:, :, :3] += dS
     return J, N
 
 
-def first_moment_acceleration(body, etad: np.ndarray) -> np.ndarray:
-    """(3,) s''|eta''=0 = eta'^T H eta' of a body's second-order first moment (body axes,
-    kg m/s^2), zeros without one (:func:`link_terms`)."""
-    H = body.first_moment_hessian
-    return np.einsum("abk,a,b->k", H, etad, etad) if H.size else np.zeros(3)
+def second_order_acceleration(body, etad: np.ndarray) -> np.ndarray:
+    """(4, 3) S''|eta''=0 = sum_ab eta'_a eta'_b G_ab, int rho xb u2''^T dV at zero modal
+    acceleration (body axes), zeros without second-order moments (:func:`link_terms`)."""
+    G = body.second_order_moments
+    return np.einsum("abjk,a,b->jk", G, etad, etad) if G.size else np.zeros((4, 3))
 
 
 def all_link_terms(system, q: np.ndarray) -> list[tuple]:

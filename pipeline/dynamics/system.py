@@ -68,11 +68,13 @@ class BodyMass:
     stiffness : (m, m) modal stiffness, N m / (modal unit)^2.
     damping : (m, m) modal damping matrix (e.g. diag(2 zeta omega) for
         mass-normalised modes), N m s.
-    first_moment_hessian : (m, m, 3) H with the second-order part of the first moment of
-        mass, int rho u2 dV = eta^T H eta / 2 (body axes, kg m per modal unit^2), or
-        (0, 0, 3): none (linear modes). It is the mass moving towards the reference as
-        the link bends; with it, translational accelerations and gravity stiffen the
-        modes, conservatively (:func:`pipeline.dynamics.mass_matrix.link_terms`).
+    second_order_moments : (m, m, 4, 3) G with the second-order part of the mass moments,
+        int rho xb u2^T dV = sum_ab eta_a eta_b G_ab / 2 (xb = [x, y, z, 1] body
+        coordinates, u2 the second-order displacement, body axes; kg m^2 and kg m per
+        modal unit^2), or (0, 0, 4, 3): none (linear modes). It is the mass moving
+        towards the reference as the link bends; with it the link's accelerations, spin
+        and gravity stiffen its modes, conservatively
+        (:func:`pipeline.dynamics.mass_matrix.link_terms`).
     """
 
     C: np.ndarray
@@ -80,14 +82,16 @@ class BodyMass:
     Cpp: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 4, 4)))
     stiffness: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     damping: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
-    first_moment_hessian: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+    second_order_moments: np.ndarray = field(
+        default_factory=lambda: np.zeros((0, 0, 4, 3)))
 
     def __post_init__(self) -> None:
-        H, m = np.asarray(self.first_moment_hessian, dtype=float), self.n_modes
-        if H.size and H.shape != (m, m, 3):
-            raise ConfigError(f"first_moment_hessian: expected shape ({m}, {m}, 3) for "
-                              f"{m} modes, got {H.shape}")
-        object.__setattr__(self, "first_moment_hessian", H if H.size else np.zeros((0, 0, 3)))
+        G, m = np.asarray(self.second_order_moments, dtype=float), self.n_modes
+        if G.size and G.shape != (m, m, 4, 3):
+            raise ConfigError(f"second_order_moments: expected shape ({m}, {m}, 4, 3) for "
+                              f"{m} modes, got {G.shape}")
+        object.__setattr__(self, "second_order_moments",
+                           G if G.size else np.zeros((0, 0, 4, 3)))
 
     @property
     def n_modes(self) -> int:
@@ -142,7 +146,7 @@ class System:
     def first_moment_data(self) -> tuple[np.ndarray, np.ndarray, tuple]:
         """Link indices (B,), C[:, 3] (B, 4) of the massive links, and per flexible one
         (position b, modal indices, C'_a[:, 3] + C'_a[3, :] (m, 4), C''_ab[:, 3] as (m, 4, m)
-        with the second-order first moment H / 2 added to its first three rows)
+        with the second-order first moment G_ab[3] / 2 added to its first three rows)
         for :func:`pipeline.dynamics.gravity.first_moments`."""
         links = self.mass_links
         li = np.array([item[0] for item in links], dtype=int)
@@ -173,8 +177,8 @@ class System:
 
 def _quadratic_moment(body: BodyMass) -> np.ndarray:
     """(m, 4, m) P2 with eta @ (P2 @ eta) the part of the first moment J(eta)[:, 3]
-    quadratic in eta: C''_ab[:, 3] and the second-order first moment H / 2."""
+    quadratic in eta: C''_ab[:, 3] and the second-order first moment G_ab[3] / 2."""
     P2 = body.Cpp[:, :, :, 3].transpose(0, 2, 1).copy()
-    if body.first_moment_hessian.size:
-        P2[:, :3, :] += 0.5 * body.first_moment_hessian.transpose(0, 2, 1)
+    if body.second_order_moments.size:
+        P2[:, :3, :] += 0.5 * body.second_order_moments[:, :, 3, :].transpose(0, 2, 1)
     return P2

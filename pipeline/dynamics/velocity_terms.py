@@ -11,8 +11,8 @@ R''_g|q''=0 with
     h_i += tr(dA_i J A''^T) + 2 tr(dA_i Ne A'^T),  Ne = sum_c N_c eta'_c
     h_a += tr(A N_a^T A''^T) + 2 tr(A G_a A'^T),   G_a = sum_c C''_ac eta'_c
 
-and, for a link with a second-order first moment, h_i += (dA_i e4) . A s''|0
-(:func:`pipeline.dynamics.mass_matrix.first_moment_acceleration`).
+and, for a link with second-order mass moments, h_i += dA_i : (A[:, :3] S''^T)
+(:func:`pipeline.dynamics.mass_matrix.second_order_acceleration`).
 
 Examples
 --------
@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.dynamics.mass_matrix import all_link_terms, first_moment_acceleration, stacked
+from pipeline.dynamics.mass_matrix import all_link_terms, second_order_acceleration, stacked
 
 __all__ = ["velocity_terms"]
 
@@ -60,8 +60,8 @@ def velocity_terms(system, tree, q: np.ndarray, qd: np.ndarray, links=None) -> n
             etad = qd[idx]
             Ne = (etad @ N.reshape(m, 16)).reshape(4, 4)
             Z[k] += 2.0 * Ad @ Ne.T
-            if body.first_moment_hessian.size:
-                Z[k][:3, 3] += A[:3, :3] @ first_moment_acceleration(body, etad)
+            if body.second_order_moments.size:
+                Z[k] += A[:, :3] @ second_order_acceleration(body, etad).T
             G = (etad @ body.Cpp.transpose(1, 0, 2, 3).reshape(m, 16 * m)).reshape(m, 4, 4)
             h[idx] += np.sum(A * (Add @ N + 2.0 * Ad @ G.transpose(0, 2, 1)), axis=(1, 2))
     return h + D @ Z.reshape(-1)

@@ -38,10 +38,10 @@ from pipeline.fem.beam import (
 )
 from pipeline.fem.model import FemModel
 
-__all__ = ["CENTRIFUGAL_CASES", "acceleration_loads", "beam_axial_forces",
+__all__ = ["CENTRIFUGAL_CASES", "INERTIA_CASES", "acceleration_loads", "beam_axial_forces",
            "beam_geometric_stiffness",
            "centrifugal_fields", "centrifugal_loads", "centrifugal_products", "centrifugal_tensor",
-           "solid_centrifugal_loads", "solid_modal_geometric_stiffness"]
+           "inertia_loads", "solid_centrifugal_loads", "solid_modal_geometric_stiffness"]
 
 #: The six products of angular-velocity components the centrifugal field is linear in.
 CENTRIFUGAL_CASES = ("wx^2", "wy^2", "wz^2", "wx*wy", "wx*wz", "wy*wz")
@@ -118,14 +118,21 @@ def centrifugal_loads(model: FemModel, origin, axes=None) -> np.ndarray:
     axes : (3, 3) columns = the axes the angular velocity is given in (body axes).
     """
     _check_beam(model)
+    return _beam_linear_field_loads(model, origin, centrifugal_fields(axes))
+
+
+def _beam_linear_field_loads(model: FemModel, origin, fields) -> np.ndarray:
+    """(F, n_dof) consistent loads on the members of the body forces rho A B_f (r - origin)
+    for the (F, 3, 3) fields B_f (link axes): exact, the fields being linear along each
+    element (:func:`centrifugal_loads`)."""
     cells, frames = model.extras["cells"], model.extras["frames"]
     lengths, props = model.extras["lengths"], model.extras["sections"].copy()
     props[:, [SECTION_COLUMNS.index("Iy"), SECTION_COLUMNS.index("Iz")]] = 0.0
     _, m_trans = local_matrices(lengths, props)  # rho A only: no section rotary inertia
     d = model.nodes[cells] - np.asarray(origin, dtype=float)  # (k, 2, 3)
     elem_dofs = model.node_dofs[cells].reshape(len(cells), 12)
-    out = np.zeros((6, model.n_dof))
-    for c, B in enumerate(centrifugal_fields(axes)):
+    out = np.zeros((len(fields), model.n_dof))
+    for c, B in enumerate(fields):
         a = np.einsum("kij,knj->kni", frames, d @ B.T)  # (k, 2, 3) field, element axes
         slope = np.einsum("kij,jl,kl->ki", frames, B, frames[:, 0, :])  # d a_loc / ds
         field = np.zeros((len(cells), 2, 6))
@@ -135,6 +142,46 @@ def centrifugal_loads(model: FemModel, origin, axes=None) -> np.ndarray:
         f_loc = np.einsum("kab,kb->ka", m_trans, field.reshape(-1, 12))
         f_link = np.einsum("kip,kai->kap", frames, f_loc.reshape(-1, 4, 3)).reshape(-1, 12)
         np.add.at(out[c], elem_dofs, f_link)
+    return out
+
+
+#: The twelve unit inertia cases of :func:`inertia_loads`: the body force rho x_j e_k
+#: (component k proportional to body coordinate j) and, for j = "1", rho e_k.
+INERTIA_CASES = tuple(f"{j}->{k}" for j in ("x", "y", "z", "1") for k in ("x", "y", "z"))
+
+
+def inertia_loads(model: FemModel, origin, axes=None) -> np.ndarray:
+    """(4, 3, n_dof) consistent nodal loads of the twelve unit inertia cases, body force
+    rho xb_j e_k with xb = [x, y, z, 1] the body coordinates (from ``origin`` along the
+    columns of ``axes``, (3, 3), default the link axes): N per (m/s^2 per m) for
+    j < 3, N per m/s^2 for j = 3 (:func:`acceleration_loads`).
+
+    Any inertia field of a moving link is their combination: a translational
+    acceleration (j = 3), the centrifugal and angular-acceleration fields (j < 3). P2
+    solids: the consistent mass times the field's nodal values (exact, the fields being
+    linear; point masses included). Beams: the members' consistent loads
+    (:func:`centrifugal_loads`) plus each point mass's load at its point.
+    """
+    R = np.eye(3) if axes is None else np.asarray(axes, dtype=float)
+    o = np.asarray(origin, dtype=float)
+    out = np.zeros((4, 3, model.n_dof))
+    out[3] = acceleration_loads(model, R)
+    if model.kind == "beam":
+        fields = np.array([np.outer(R[:, k], R[:, j]) for j in range(3) for k in range(3)])
+        out[:3] = _beam_linear_field_loads(model, o, fields).reshape(3, 3, -1)
+        for pm in model.extras.get("point_masses", ()):
+            xb = (np.asarray(pm["position"]) - o) @ R
+            for j in range(3):
+                for k in range(3):
+                    load = np.r_[pm["mass"] * xb[j] * R[:, k], np.zeros(3)]
+                    out[j, k] += pm["operator"].T @ load
+        return out
+    xb = (model.nodes - o) @ R
+    for j in range(3):
+        for k in range(3):
+            field = np.zeros(model.n_dof)
+            field[model.node_dofs] = np.outer(xb[:, j], R[:, k])
+            out[j, k] = model.mass @ field
     return out
 
 

@@ -155,7 +155,7 @@ def transform_modes(link: ReducedLink, Q: np.ndarray, note: dict | None = None) 
     frames = tuple(FrameModes(f.name, f.pose, Q.T @ f.phi, Q.T @ f.psi, f.kind)
                    for f in link.frames)
     KG, KF, S = link.geometric_stiffness, link.force_geometric_stiffness, link.stress_modes
-    KA = link.acceleration_geometric_stiffness
+    KI = link.inertia_geometric_stiffness
     meta = dict(link.meta)
     if note:
         meta["modal_basis"] = {**dict(meta.get("modal_basis", {})), **note}
@@ -166,6 +166,6 @@ def transform_modes(link: ReducedLink, Q: np.ndarray, note: dict | None = None) 
         frames=frames, mode_shapes=shapes, meta=meta,
         geometric_stiffness=np.einsum("ba,cbd,de->cae", Q, KG, Q) if KG.size else KG,
         force_geometric_stiffness=np.einsum("ba,fkbd,de->fkae", Q, KF, Q) if KF.size else KF,
-        acceleration_geometric_stiffness=(np.einsum("ba,cbd,de->cae", Q, KA, Q) if KA.size
-                                          else KA),
+        inertia_geometric_stiffness=(np.einsum("ba,jkbd,de->jkae", Q, KI, Q) if KI.size
+                                     else KI),
         stress_modes=np.einsum("ba,bnk->ank", Q, S).astype(np.float32) if S.size else S)

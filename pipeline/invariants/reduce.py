@@ -107,21 +107,23 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
         motions = [(itf, *frame_motion(model, tied, basis, itf)) for itf in
                    _reference_first(interfaces, request.reference) + markers]
     ref = tied.interface(request.reference)
-    KG, KF, KA, stiffening = None, None, None, {}
+    KG, KF, KI, stiffening = None, None, None, {}
     if request.geometric_stiffening:
+        from pipeline.fem.geometric import CENTRIFUGAL_CASES, INERTIA_CASES
         from pipeline.invariants.stiffening import (
-            acceleration_stiffness,
-            centrifugal_stiffness,
+            centrifugal_from_inertia,
             frame_force_stiffness,
+            inertia_stiffness,
         )
 
         with stage(f"geometric stiffness of link '{name}'", times):
-            KG, summary = centrifugal_stiffness(model, tied, basis, ref.pose, problem)
+            KI = inertia_stiffness(model, tied, basis, ref.pose, problem)
+            KG = centrifugal_from_inertia(KI)
             KF = frame_force_stiffness(model, tied, basis, ref.pose,
                                        [m[0] for m in motions], problem)
-            KA = acceleration_stiffness(model, tied, basis, ref.pose, problem)
-        stiffening = {"geometric_stiffening": {**summary, "frame_forces": [
-            m[0].name for m in motions], "accelerations": ["ax", "ay", "az"]}}
+        stiffening = {"geometric_stiffening": {
+            "cases": list(CENTRIFUGAL_CASES), "inertia_cases": list(INERTIA_CASES),
+            "frame_forces": [m[0].name for m in motions]}}
     info = {"n_dof": model.n_dof, "n_nodes": model.n_nodes, "units": "SI (m, kg, s, N, rad)",
             "stage_seconds": times.as_dict(), "mesh": _mesh_quality(mesh, moments, request),
             "reference_conditions": {"reference": request.reference, "chord": request.chord},
@@ -137,7 +139,7 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
     link = replace(link, stress_modes=S)
     if KG is not None:
         link = replace(link, geometric_stiffness=KG, force_geometric_stiffness=KF,
-                       acceleration_geometric_stiffness=KA)
+                       inertia_geometric_stiffness=KI)
     # repeated frequencies (symmetric sections): modes along the body axes, not mixtures
     return align_repeated(link)
 

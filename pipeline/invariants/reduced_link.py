@@ -69,9 +69,9 @@ class ReducedLink:
     force_geometric_stiffness : (F, 3, m, m) geometric stiffness per unit force (N) along
         each body axis at each frame (in ``frames`` order), N m / N; (0, 3, m, m) when not
         computed.
-    acceleration_geometric_stiffness : (3, m, m) geometric stiffness per unit uniform
-        acceleration (m/s^2) along each body axis, N m s^2 / m; (0, m, m) when not
-        computed.
+    inertia_geometric_stiffness : (4, 3, m, m) geometric stiffness of the unit inertia
+        cases, body force rho xb_j e_k with xb = [x, y, z, 1] in body axes (see
+        :mod:`pipeline.invariants.stiffening`); (0, 3, m, m) when not computed.
     stress_modes : (m, N, 6) float32 per unit modal coordinate at the nodes: solids the
         stress in body axes, Voigt [xx, yy, zz, yz, xz, xy], Pa; beams the section
         resultants [N, Vy, Vz, T, My, Mz] in element axes, N and N m
@@ -97,7 +97,7 @@ class ReducedLink:
     geometric_stiffness: np.ndarray | None = None
     stress_modes: np.ndarray | None = None
     force_geometric_stiffness: np.ndarray | None = None
-    acceleration_geometric_stiffness: np.ndarray | None = None
+    inertia_geometric_stiffness: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         m = int(self.frequencies_hz.shape[0])
@@ -105,8 +105,8 @@ class ReducedLink:
             object.__setattr__(self, "geometric_stiffness", np.zeros((0, m, m)))
         if self.force_geometric_stiffness is None:
             object.__setattr__(self, "force_geometric_stiffness", np.zeros((0, 3, m, m)))
-        if self.acceleration_geometric_stiffness is None:
-            object.__setattr__(self, "acceleration_geometric_stiffness", np.zeros((0, m, m)))
+        if self.inertia_geometric_stiffness is None:
+            object.__setattr__(self, "inertia_geometric_stiffness", np.zeros((0, 3, m, m)))
         if self.stress_modes is None:
             object.__setattr__(self, "stress_modes",
                                np.zeros((0, int(self.nodes.shape[0]), 6), np.float32))
@@ -155,19 +155,20 @@ class ReducedLink:
             KF = KF[:, :, idx][:, :, :, idx]
         return -np.transpose(KF, (0, 2, 3, 1))
 
-    def first_moment_hessian(self, modes=None) -> np.ndarray | None:
-        """(m, m, 3) second derivatives of the link's first moment of mass,
-        d2(int rho r dV)/deta_a deta_b (kg m per modal unit^2, body axes) of the kept
-        ``modes`` (default all): ``-K_a,k`` of the unit acceleration cases
-        (:func:`pipeline.invariants.stiffening.acceleration_stiffness`); None without
-        geometric stiffening."""
-        KA = np.asarray(self.acceleration_geometric_stiffness, dtype=float)
-        if not KA.size:
+    def second_order_moments(self, modes=None) -> np.ndarray | None:
+        """(m, m, 4, 3) G_ab[j, k] = d2(int rho xb_j u_k dV)/deta_a deta_b, the second-order
+        moments of the link's mass (xb = [x, y, z, 1] body coordinates, u its displacement,
+        body axes; kg m^2 and kg m per modal unit^2) of the kept ``modes`` (default all):
+        ``-K_jk`` of the unit inertia cases
+        (:func:`pipeline.invariants.stiffening.inertia_stiffness`); None without
+        geometric stiffening. G_ab[3] is the second-order first moment."""
+        KI = np.asarray(self.inertia_geometric_stiffness, dtype=float)
+        if not KI.size:
             return None
         if modes is not None:
             idx = list(modes)
-            KA = KA[:, idx][:, :, idx]
-        return -np.transpose(KA, (1, 2, 0))
+            KI = KI[:, :, idx][:, :, :, idx]
+        return -np.transpose(KI, (2, 3, 0, 1))
 
     def frame(self, name: str) -> FrameModes:
         """The frame called ``name``; KeyError lists the available ones."""

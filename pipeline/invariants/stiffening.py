@@ -1,17 +1,25 @@
-"""Geometric-stiffening invariants of a reduced link (centrifugal load cases).
+"""Geometric-stiffening invariants of a reduced link: inertia and frame-force load cases.
 
-A link spinning with body angular velocity w carries the centrifugal prestress of the
-body force ``rho (|w|^2 1 - w w^T) r`` (r from the body-frame origin). Linear in the six
-products p_c(w) (:data:`pipeline.fem.geometric.CENTRIFUGAL_CASES`), it is solved once per
-unit case on the FE model clamped at the reference interface -- the same clamp as the
-modes -- and its geometric stiffness is projected on the modes:
+Every inertia load of a moving link -- translational and angular acceleration, spin,
+gravity -- is a body force linear in the body coordinates, a combination of twelve unit
+fields rho xb_j e_k (xb = [x, y, z, 1] from the body-frame origin, body axes;
+:func:`pipeline.fem.geometric.inertia_loads`). Each is solved once on the FE model
+clamped at the reference interface -- the same clamp as the modes -- and its geometric
+stiffness projected on the modes:
 
-    K_G,c = Phi^T K_sigma(N_c) Phi    (m, m) per case, N m per (rad/s)^2,
+    K_jk = Phi^T K_sigma(N_jk) Phi    (m, m) per case.
 
-so that in motion the modal equations gain ``sum_c p_c(w) K_G,c eta`` (the stiffening the
-linear modal kinematics leaves out: the centrifugal softening is already in C''_ab).
-:func:`frame_force_stiffness` does the same for unit forces at the link's frames (applied
-loads at its pins and markers). Beam links and P2 solids.
+By virtual work with the Green-Lagrange strain, the unit case's prestress does through the
+nonlinear strain the work that its body force does through the second-order displacement
+u2 of the mass, so K_jk are also the link's **second-order mass moments**,
+``int rho xb_j u2_k dV = -eta^T K_jk eta / 2``
+(:meth:`pipeline.invariants.reduced_link.ReducedLink.second_order_moments`). They enter the
+mass distribution of the equations of motion (:mod:`pipeline.dynamics.mass_matrix`), so
+that the link's own motion stiffens it with the energy that goes with it. The six unit
+centrifugal cases (:data:`pipeline.fem.geometric.CENTRIFUGAL_CASES`) are combinations of
+them (:func:`centrifugal_from_inertia`), kept in the artifact for inspection.
+:func:`frame_force_stiffness` does the same for unit forces at the link's frames
+(applied loads at its pins and markers). Beam links and P2 solids.
 
 The force cases double as the frames' **second-order kinematics**
 (:meth:`pipeline.invariants.reduced_link.ReducedLink.frame_hessians`). A unit force along body axis k at frame f does, through the
@@ -32,12 +40,10 @@ import numpy as np
 
 from pipeline.core.progress import report
 from pipeline.fem.geometric import (
-    CENTRIFUGAL_CASES,
-    acceleration_loads,
     beam_axial_forces,
     beam_geometric_stiffness,
-    centrifugal_loads,
-    solid_centrifugal_loads,
+    centrifugal_fields,
+    inertia_loads,
     solid_modal_geometric_stiffness,
 )
 from pipeline.fem.interfaces import TiedModel
@@ -46,48 +52,33 @@ from pipeline.modes.basis import ModalBasis
 from pipeline.modes.clamp import ClampedProblem
 
 
-def centrifugal_stiffness(model: FemModel, tied: TiedModel, basis: ModalBasis,
-                          body_pose: np.ndarray, problem: ClampedProblem | None = None
-                          ) -> tuple[np.ndarray, dict]:
-    """(6, m, m) K_G,c of the unit centrifugal cases (w in body axes) and a summary.
+def inertia_stiffness(model: FemModel, tied: TiedModel, basis: ModalBasis,
+                      body_pose: np.ndarray, problem: ClampedProblem | None = None
+                      ) -> np.ndarray:
+    """(4, 3, m, m) geometric stiffness of the twelve unit inertia cases
+    (:func:`pipeline.fem.geometric.inertia_loads`: body force rho xb_j e_k, xb = [x, y, z,
+    1] in body axes), the link clamped as its modes are.
 
-    Parameters
-    ----------
-    model, tied : the link's FE model (beam or P2 solid) and its tied interfaces.
-    basis : its clamped modes (``basis.reference`` is the clamp of the load cases).
-    body_pose : (4, 4) body frame in the link frame (origin = spin point, axes = the
-        axes w is given in).
-    problem : the modes' clamped problem, to reuse its factorisation (built if None).
-
-    Returns
-    -------
-    K_G : (6, m, m) symmetric, N m per (rad/s)^2 per modal unit^2.
-    info : {"cases": names} for the artifact's provenance.
+    By virtual work they are also minus the second derivatives of the link's second-order
+    mass moments: with u2 the second-order displacement of its mass,
+    ``int rho xb_j u2_k dV = -eta^T K_jk eta / 2`` (for a bar: every section pulled back
+    by the shortening inboard of it). Held as
+    :meth:`pipeline.invariants.reduced_link.ReducedLink.second_order_moments`, they enter
+    the link's mass distribution, so that its accelerations, spin and gravity stiffen or
+    soften its modes with the kinetic and potential energy that go with it. Any inertia
+    field is their combination (the centrifugal cases: :func:`centrifugal_from_inertia`).
+    N m per unit field per modal unit^2.
     """
-    if model.kind == "beam":
-        loads = centrifugal_loads(model, body_pose[:3, 3], body_pose[:3, :3])
-    else:
-        loads = solid_centrifugal_loads(model, body_pose[:3, 3], body_pose[:3, :3])
-    out = _projected(model, tied, basis, loads, "centrifugal", problem)
-    return out, {"cases": list(CENTRIFUGAL_CASES)}
+    loads = inertia_loads(model, body_pose[:3, 3], body_pose[:3, :3])
+    out = _projected(model, tied, basis, loads.reshape(12, -1), "inertia", problem)
+    return out.reshape(4, 3, *out.shape[1:])
 
 
-def acceleration_stiffness(model: FemModel, tied: TiedModel, basis: ModalBasis,
-                           body_pose: np.ndarray, problem: ClampedProblem | None = None
-                           ) -> np.ndarray:
-    """(3, m, m) geometric stiffness per unit uniform acceleration (m/s^2) along each body
-    axis: the prestress of the body force rho e_k on the link clamped as its modes are.
-
-    By virtual work it is also minus the Hessian of the link's first moment of mass: the
-    mass-weighted second-order displacement is ``int rho u2 dV = -eta^T K_a,k eta / 2``
-    along body axis k (a bent link's mass moves towards its reference). Held as
-    :meth:`pipeline.invariants.reduced_link.ReducedLink.first_moment_hessian`, it enters
-    the link's mass distribution, so that translational accelerations and gravity stiffen
-    or soften the modes with the kinetic and potential energy that go with it.
-    N m per m/s^2 per modal unit^2.
-    """
-    loads = acceleration_loads(model, body_pose[:3, :3])
-    return _projected(model, tied, basis, loads, "acceleration", problem)
+def centrifugal_from_inertia(K_inertia: np.ndarray) -> np.ndarray:
+    """(6, m, m) the unit centrifugal cases' geometric stiffness (:data:`CENTRIFUGAL_CASES`,
+    body axes) from the (4, 3, m, m) inertia cases: the centrifugal field B_c xb is
+    sum_jk B_c[k, j] xb_j e_k, and the geometric stiffness is linear in the load."""
+    return np.einsum("ckj,jkab->cab", centrifugal_fields(), K_inertia[:3])
 
 
 def frame_force_stiffness(model: FemModel, tied: TiedModel, basis: ModalBasis,

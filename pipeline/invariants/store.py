@@ -25,7 +25,7 @@ FORMAT_VERSION = 2  # 2: the digest covers the header
 _ARRAYS = ("body_pose", "C", "Cp", "Cpp", "modal_stiffness", "modal_mass",
            "frequencies_hz", "nodes", "cells", "surface", "mode_shapes")
 _OPTIONAL = ("geometric_stiffness", "force_geometric_stiffness",
-             "acceleration_geometric_stiffness", "stress_modes")  # absent when not computed
+             "inertia_geometric_stiffness", "stress_modes")  # absent when not computed
 
 
 def _digest(arrays: dict[str, np.ndarray], header: dict) -> str:

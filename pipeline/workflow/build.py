@@ -19,8 +19,7 @@ from pydantic import ValidationError
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.dynamics import BodyMass, System, body_from_reduced
 from pipeline.dynamics.bodies import FrameView, frame_views, in_plane_modes
-from pipeline.dynamics.forces import FORCES, GeometricStiffening
-from pipeline.fem.geometric import centrifugal_tensor
+from pipeline.dynamics.forces import FORCES
 from pipeline.kinematics import Joint, build_mechanism, evaluate_tree, rigid_link
 from pipeline.kinematics.drivers import driver_from_dict
 from pipeline.kinematics.initial import initial_positions, initial_velocities
@@ -375,23 +374,6 @@ def build_forces(wf: Workflow, mech, q0) -> list:
     return out
 
 
-def stiffening_elements(wf: Workflow, parts) -> list:
-    """A :class:`GeometricStiffening` element per flexible link with
-    ``geometric_stiffening: true`` and kept modes (named ``<link>:geometric_stiffening``):
-    its own centrifugal load. (The forces at its frames, applied or transmitted by its
-    joints, stiffen it through the frames' second-order kinematics, :func:`_flex_frames`.)"""
-    out = []
-    for name, entry in wf.spec.links.items():
-        part = parts.get(name)
-        if not getattr(entry, "geometric_stiffening", False) or part is None or not part.modes:
-            continue
-        idx = list(part.modes)
-        red = part.reduced
-        G = centrifugal_tensor(red.geometric_stiffness[:, idx][:, :, idx])
-        out.append(GeometricStiffening(f"{name}:geometric_stiffening", name, G))
-    return out
-
-
 def initial_state(wf: Workflow, mech, drivers, init=None, path=("initial",)):
     """(q0, qd0) consistent with the loops and the drivers at t = 0: the joints' ``initial``
     values are the approximate assembly; the ``initial:`` coordinates and velocities
@@ -439,6 +421,6 @@ def build_machine(wf: Workflow, cache_dir: str | Path = "output/links",
         raise wf.error("joints", msg=str(exc)) from None
     drivers = build_drivers(wf, mech)
     q0, qd0 = initial_state(wf, mech, drivers)
-    forces = build_forces(wf, mech, q0) + stiffening_elements(wf, parts)
+    forces = build_forces(wf, mech, q0)
     system = System(mech, bodies, wf.spec.gravity, forces=forces, drivers=drivers)
     return Machine(wf, system, q0, qd0, parts)

@@ -102,15 +102,30 @@ class Model:
     system: System
     positions: object  # q -> list of (G_l, 3) point arrays (hand-coded)
     masses: list
+    weights: list | None = None  # the points' masses in the potential, if not ``masses``
+
+    @property
+    def gravity_masses(self) -> list:
+        return self.masses if self.weights is None else self.weights
 
 
-def moving_mass(A, H, eta):
-    """(2, 3) the points A [+-s(eta)] of a second-order first moment s = eta^T H eta / 2
-    (H (m, m, 3)): with masses +-1/2 they hold the kinetic energy p' . d(A s)/dt of the
-    link origin p with the moving mass, and the potential -g . A s, and nothing else
-    (|p' + c'|^2 - |p' - c'|^2 = 4 p' . c')."""
-    s = 0.5 * np.einsum("abk,a,b->k", H, eta, eta)
-    return np.array([s, -s]) @ A[:3, :3].T + A[:3, 3]
+def moving_mass(A, G, eta):
+    """(8, 3) points holding, with the masses (8,) ``MOVING_MASSES``, the kinetic energy
+    int rho (T' xb) . d(R u2)/dt of the rigid motion T = [R, p] with a second-order moving
+    mass u2 (moments int rho xb_j u2 = S_j(eta), S = sum eta_a eta_b G_ab / 2 (4, 3),
+    G (m, m, 4, 3)), and nothing else: sum_j (T' E_j) . (R S_j)' with E_j = e_j for the
+    first moments (a direction: R e_j, not a body point) and the origin p for the mean,
+    each product from a pair X_j +- R S_j with masses +-1/2 (|v + c|^2 - |v - c|^2 =
+    4 v . c). Their weight is not physical: only the mean's pair has the potential
+    -g . R S_3 (``MOVING_WEIGHTS``)."""
+    S = 0.5 * np.einsum("abjk,a,b->jk", G, eta, eta)
+    X = np.vstack([A[:3, :3].T, A[:3, 3]])  # R e_j (rows), p
+    RS = S @ A[:3, :3].T
+    return np.concatenate([X + RS, X - RS])
+
+
+MOVING_MASSES = np.r_[0.5 * np.ones(4), -0.5 * np.ones(4)]
+MOVING_WEIGHTS = np.r_[0, 0, 0, 0.5, 0, 0, 0, -0.5]
 
 
 def flexible_double_pendulum(seed=0, n_modes=3, k_scale=200.0, zeta=None, g=9.81,
@@ -118,8 +133,8 @@ def flexible_double_pendulum(seed=0, n_modes=3, k_scale=200.0, zeta=None, g=9.81
     """Two flexible links in the x-y plane (gravity -y); joints about z.
 
     Coordinates: j1.theta, j2.theta, link1.eta1..m, link2.eta1..m. ``second_order``: each
-    link also has a random second-order first moment of mass (``first_moment_hessian``),
-    held in the hand-coded positions by the point pair of :func:`moving_mass`.
+    link also has random second-order mass moments (``second_order_moments``), held in
+    the hand-coded positions by the points of :func:`moving_mass`.
     """
     rng = np.random.default_rng(seed)
     L1, L2 = 1.0, 0.8
@@ -142,10 +157,11 @@ def flexible_double_pendulum(seed=0, n_modes=3, k_scale=200.0, zeta=None, g=9.81
             # the modal mass's size per metre), a little sideways
             size = np.trace(np.einsum("abii->ab", body.Cpp)) / n_modes
             P = rng.standard_normal((n_modes, n_modes))
-            H = 0.1 * size * rng.standard_normal((n_modes, n_modes, 3))
-            H[..., 0] = -0.5 * size * P @ P.T
-            hess[name] = 0.5 * (H + H.transpose(1, 0, 2))
-            bodies[name] = replace(body, first_moment_hessian=hess[name])
+            G = 0.02 * size * rng.standard_normal((n_modes, n_modes, 4, 3))
+            G[:, :, 3, 0] = -0.5 * size * P @ P.T
+            G[:, :, 0, 0] = -0.3 * size * P @ P.T  # in metres from the origin
+            hess[name] = 0.5 * (G + G.transpose(1, 0, 2, 3))
+            bodies[name] = replace(body, second_order_moments=hess[name])
     if n_modes:
         l1 = flexible_link("link1", {"B": (translation([L1, 0, 0]), phiB, psiB)})
         l2 = flexible_link("link2", {"C": (translation([L2, 0, 0]), phiC, psiC)})
@@ -167,8 +183,9 @@ def flexible_double_pendulum(seed=0, n_modes=3, k_scale=200.0, zeta=None, g=9.81
             out += [moving_mass(A1, hess["link1"], e1), moving_mass(A2, hess["link2"], e2)]
         return out
 
-    pair = [np.array([0.5, -0.5])] * (2 if hess else 0)
-    return Model(system, positions, [c1.m, c2.m] + pair)
+    pairs = 2 if hess else 0
+    return Model(system, positions, [c1.m, c2.m] + [MOVING_MASSES] * pairs,
+                 [c1.m, c2.m] + [MOVING_WEIGHTS] * pairs)
 
 
 def flexible_four_bar(seed=1, n_modes=3, a=1.0, b=2.2, c=2.0, d=2.5):

@@ -89,11 +89,11 @@ def test_gravity_force_is_minus_gradient_of_point_potential(name):
     q, _, _ = _random_state(rng, model)
     g = s.gravity
     n = q.size
-    ref = -np.array([(potential(model.positions, model.masses, q + H * e, g)
-                      - potential(model.positions, model.masses, q - H * e, g)) / (2 * H)
+    ref = -np.array([(potential(model.positions, model.gravity_masses, q + H * e, g)
+                      - potential(model.positions, model.gravity_masses, q - H * e, g)) / (2 * H)
                      for e in np.eye(n)])
     tree = evaluate_tree(s.mechanism, q)
     Q = gravity_force(s, tree, q)
     assert np.abs(Q - ref).max() <= 1e-8 * np.abs(ref).max()
     V = gravity_potential(s, tree, q)
-    assert abs(V - potential(model.positions, model.masses, q, g)) <= 1e-12 * max(1.0, abs(V))
+    assert abs(V - potential(model.positions, model.gravity_masses, q, g)) <= 1e-12 * max(1.0, abs(V))

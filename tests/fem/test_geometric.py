@@ -162,3 +162,26 @@ def test_acceleration_loads_carry_the_mass_and_its_moment():
     N = beam_axial_forces(_model(), _clamped_solve(_model(), axial))
     mid = 0.5 * (x[:-1] + x[1:])
     np.testing.assert_allclose(N, RHO * A * (L - mid), rtol=1e-9)
+
+
+def test_inertia_cases_combine_into_the_centrifugal_ones():
+    """The twelve unit inertia fields rho xb_j e_k span every inertia load: the centrifugal
+    cases are sum_jk B_c[k, j] of the linear ones, exactly, for beams (about a point off
+    the bar, in rotated body axes) and P2 solids."""
+    from skfem import MeshTet
+
+    from pipeline.fem import Material, assemble_solid
+    from pipeline.fem.geometric import inertia_loads, solid_centrifugal_loads
+    from pipeline.kinematics.rotations import rot_x, rot_z
+    from pipeline.meshing.mesh_data import MeshData
+
+    o, Rb = np.array([0.3, -0.2, 0.1]), rot_z(0.4) @ rot_x(-0.7)
+    beam = _model((1.0, 2.0, 0.5))
+    sk = MeshTet.init_tensor(np.linspace(0, 0.5, 6), np.linspace(0, 0.02, 2),
+                             np.linspace(0, 0.01, 2))
+    solid = assemble_solid(MeshData(sk.p.T, {"tetra": sk.t.T}, "solid"),
+                           Material(E=E, nu=0.3, rho=RHO), "bar")
+    for model, direct in ((beam, centrifugal_loads), (solid, solid_centrifugal_loads)):
+        ref = direct(model, o, Rb)
+        combined = np.einsum("ckj,jkn->cn", centrifugal_fields(), inertia_loads(model, o, Rb)[:3])
+        np.testing.assert_allclose(combined, ref, atol=1e-12 * np.abs(ref).max())

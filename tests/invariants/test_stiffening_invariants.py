@@ -90,17 +90,22 @@ def test_tip_second_order_translation_is_the_chord_shortening(tmp_path, kind):
 @pytest.mark.parametrize("kind", ["solid", "beam"])
 def test_first_moment_moves_back_by_the_sections_shortening(tmp_path, kind):
     """The unit acceleration cases' geometric stiffness, read as the link's second-order
-    first moment of mass (ReducedLink.first_moment_hessian): bending in mode 1 moves every
+    first moment of mass (ReducedLink.second_order_moments, its mean): bending in mode 1
+    moves every
     section back along the bar by the shortening inboard of it, so the first moment drops
     by int rho A (L - x) phi_1'^2 dx eta_1^2 / 2 (Euler-Bernoulli, within 1 %) and does not
     move sideways at second order."""
     link = _reduce(tmp_path, kind)
     tip = np.abs(link.mode_shapes[:, np.argmax(link.nodes[:, 0])])
     a = int(np.argmax(tip[:, 1] > 10 * tip[:, 2]))
-    H = link.first_moment_hessian()
+    G = link.second_order_moments()
+    H = G[:, :, 3]
     assert H[a, a, 0] == pytest.approx(-_eb_moving_mass(), rel=0.01)
     assert np.abs(H[a, a, 1:]).max() < 1e-3 * abs(H[a, a, 0])
-    np.testing.assert_allclose(H, H.transpose(1, 0, 2), atol=1e-12 * np.abs(H).max())
+    np.testing.assert_allclose(G, G.transpose(1, 0, 2, 3), atol=1e-12 * np.abs(G).max())
+    # its first moment along the bar: every section's x times its pull-back,
+    # int rho A x int_0^x phi'^2 = int rho A (L^2 - s^2) / 2 phi'^2 ds (the spin case's)
+    assert G[a, a, 0, 0] == pytest.approx(-_eb_kg11(), rel=0.01)
 
 
 def test_solid_centrifugal_load_resultant_is_m_w2_xc(tmp_path):

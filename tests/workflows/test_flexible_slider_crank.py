@@ -16,8 +16,8 @@ quantity compared is the rod's mid-span deflection from its chord.
 The pipeline's rod comes from the other side: gmsh line mesh, Hermite beam FE, modes with
 the chord reference (pinned at both ends) or clamped at the crank pin, the 4x4
 multibody equations of the closed loop with the rod's geometric stiffening (the
-second-order frames carry the pin forces, the second-order first moment its own
-acceleration). Both have stiffness-proportional damping, 2 % in the first mode.
+second-order frames carry the pin forces, the second-order mass moments its own
+acceleration and spin). Both have stiffness-proportional damping, 2 % in the first mode.
 """
 
 from __future__ import annotations
@@ -181,7 +181,7 @@ def test_without_stiffening_the_rod_deflects_too_much(tmp_path, reference):
 @pytest.mark.slow
 def test_modes_clamped_at_the_crank_pin_converge_to_it_too(tmp_path, reference):
     """Modes clamped at the crank pin (the body frame tangent to the rod there), five of
-    them: within 1 % of the peak (measured 0.6 %). Without the second-order first moment
+    them: within 1 % of the peak (measured 0.35 %). Without the second-order mass moments
     (the rod's own axial inertia) this was 2.6 %."""
     clamped = ROD.replace("modes: {count: 8, chord: B}", "modes: {count: 12}")
     r, mid = _run(tmp_path, "links.rod.modes=5", spec=clamped)

@@ -11,8 +11,9 @@ shapes phi_i (5 of them), integrated by scipy:
     K_G = int rho A (L^2 - x^2) / 2 phi' phi'^T   (the centrifugal axial force, by hand).
 
 The pipeline's model comes from the other side: gmsh line mesh, Hermite beam FE, clamped
-modes, the centrifugal load cases solved on the FE model and their geometric stiffness
-projected on the modes, the 4x4 multibody equations. The first bending frequency is
+modes, the unit inertia load cases solved on the FE model and their geometric stiffness
+projected on the modes as the link's second-order mass moments, the 4x4 multibody
+equations. The first bending frequency is
 3.80 rad/s: without stiffening the linear model diverges for w_s above it.
 """
 
@@ -106,6 +107,7 @@ def _run(tmp_path, rate: float, stiffening: bool = True):
 
 @pytest.mark.parametrize("rate", [2.0, 4.0, 10.0])
 def test_spin_up_beam_with_stiffening_matches_rayleigh_ritz(tmp_path, rate):
+    """Tip deflection history within 1 % of the peak (measured 3e-5, 1.5e-4, 1.2e-3)."""
     r, tip = _run(tmp_path, rate)
     assert r.success and r.verdict == "ok", r.message
     ref = rayleigh_ritz_tip(rate, r.t)
@@ -114,17 +116,17 @@ def test_spin_up_beam_with_stiffening_matches_rayleigh_ritz(tmp_path, rate):
     assert np.abs(tip - ref).max() < 0.01 * peak
 
 
-def test_stiffening_work_is_not_booked_as_exchanged_energy(tmp_path):
-    """The stiffening force is an approximation without a potential: its work must show
-    in the energy balance as error, not hide as exchanged (non-conservative) work. On the
-    driven spin-up nothing is dissipated, the driver does the work, and the balance closes
-    within the run's check."""
+def test_spin_stiffening_keeps_the_energy_balance(tmp_path):
+    """The spin stiffens the beam through its second-order mass moments, which come with
+    their kinetic energy: on the driven spin-up nothing is dissipated, the driver does the
+    work, and the balance closes to the integrator's accuracy (1e-11 of the driver's work
+    measured; an approximate spin force without a potential left 1e-3 here)."""
     r, _ = _run(tmp_path, 4.0)
     e = r.energies
     driver = np.abs(e["driver_work"]).max()
     assert driver > 100.0  # the hub's driver spins up ~kJ of kinetic energy
     assert np.abs(e["dissipated"]).max() <= 1e-12 * driver
-    assert np.abs(e["total"]).max() <= 1e-2 * driver
+    assert np.abs(e["total"]).max() <= 1e-8 * driver
 
 
 def test_without_stiffening_the_beam_diverges_above_its_first_frequency(tmp_path):

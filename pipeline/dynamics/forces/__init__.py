@@ -13,7 +13,6 @@ from pipeline.dynamics.forces.loads import (
                                             Torque,
 )
 from pipeline.dynamics.forces.springs import JointSpringDamper, SpringDamper, TableSpringDamper
-from pipeline.dynamics.forces.stiffening import GeometricStiffening
 
 #: Force element classes keyed by type name.
 FORCES: dict[str, type[ForceElement]] = {
@@ -28,6 +27,5 @@ FORCES: dict[str, type[ForceElement]] = {
     "force_cylinder": ForceCylinder,
 }
 
-__all__ = ["FORCES", "FollowerForce", "ForceCylinder", "ForceElement", "GeometricStiffening",
-           "JointForce", "JointSpringDamper", "LineForce", "MarkerPoint", "PointForce",
+__all__ = ["FORCES", "FollowerForce", "ForceCylinder", "ForceElement", "JointForce", "JointSpringDamper", "LineForce", "MarkerPoint", "PointForce",
            "SpringDamper", "TableSpringDamper", "Torque", "marker_point", "marker_pose"]
