@@ -161,45 +161,48 @@ class FrameView:
         self.name, self.pose, self.phi, self.psi, self.hess = name, pose, phi, psi, hess
 
 
-def frame_views(reduced, idx, plane: str | None = None, second_order: bool = False
-                ) -> list[FrameView]:
+def frame_views(reduced, idx, plane: str | None = None, second_order: bool = False,
+                extra=None, where: str | None = None) -> list[FrameView]:
     """The reduced link's frames restricted to the kept modes ``idx``: with their
     second-order translations (``second_order``, geometric stiffening; None if the
     artifact has none), the reference's rotation left out under a chord reference (its
-    frame is the chord's, a pin), and projected on ``plane``."""
+    frame is the chord's, a pin), plus the ``extra`` frames ``{name: (frame it is fixed
+    on, local pose (4, 4))}``, all projected on ``plane`` last.
+
+    An extra frame is attached to the 3-D motion of its base, first order like the shape
+    matrix: its origin moves by phi + psi x (R0 d) for the local offset d, it turns by
+    psi, and it takes the base's second-order translation. Attached before the projection,
+    a point off the plane keeps the in-plane motion the base's out-of-plane rotation
+    gives it, as the mode shape does. ``where`` names the extra frames in messages
+    (default ``link '<name>': frames``).
+    """
+    where = f"link '{reduced.name}': frames" if where is None else where
     H = reduced.frame_hessians(idx) if second_order and len(idx) else None
-    views = []
+    views = {}
     for i, f in enumerate(reduced.frames):
         phi, psi = np.array(f.phi)[list(idx)], np.array(f.psi)[list(idx)]
         if reduced.chord is not None and i == 0:
             psi = np.zeros_like(psi)
         hess = None if H is None else H[i].copy()
-        if plane is not None:  # the planar loops cannot follow residual out-of-plane motion
-            phi, psi = project_on_plane(phi, psi, plane)
-            if hess is not None:
-                hess[..., _plane(plane)[0]] = 0.0
-        views.append(FrameView(f.name, np.array(f.pose, dtype=float), phi, psi, hess))
-    return views
-
-
-def _attached(reduced, idx, new: str, base: str, local) -> FrameView:
-    """Frame rigidly attached to frame ``base`` at ``local`` (4, 4) in its axes.
-
-    First order, like the shape matrix: the new origin moves by
-    phi + psi x (R0 d) with d the local offset; the small rotation is psi.
-    """
-    try:
-        f = reduced.frame(base)
-    except KeyError as exc:
-        raise ConfigError(f"link '{reduced.name}': frames.{new}: {exc.args[0]}") from None
-    local = np.asarray(local, dtype=float)
-    if local.shape != (4, 4):
-        raise ConfigError(f"link '{reduced.name}': frames.{new}: expected a (4, 4) pose, "
-                          f"got shape {local.shape}")
-    pose = f.pose @ local
-    psi = np.asarray(f.psi)[idx]
-    phi = np.asarray(f.phi)[idx] + np.cross(psi, f.pose[:3, :3] @ local[:3, 3])
-    return FrameView(new, pose, phi, psi)
+        views[f.name] = FrameView(f.name, np.array(f.pose, dtype=float), phi, psi, hess)
+    for new, (on, local) in (extra or {}).items():
+        if on not in views:
+            raise ConfigError(f"{where}.{new}.on: expected one of {sorted(views)}, "
+                              f"got {on!r}")
+        local = np.asarray(local, dtype=float)
+        if local.shape != (4, 4):
+            raise ConfigError(f"{where}.{new}: expected a (4, 4) pose, got shape "
+                              f"{local.shape}")
+        base = views[on]
+        views[new] = FrameView(new, base.pose @ local,
+                               base.phi + np.cross(base.psi, base.pose[:3, :3] @ local[:3, 3]),
+                               base.psi.copy(), None if base.hess is None else base.hess.copy())
+    if plane is not None:  # the planar loops cannot follow residual out-of-plane motion
+        for v in views.values():
+            v.phi, v.psi = project_on_plane(v.phi, v.psi, plane)
+            if v.hess is not None:
+                v.hess[..., _plane(plane)[0]] = 0.0
+    return list(views.values())
 
 
 def link_from_reduced(reduced, modes: Sequence[int] | None = None, name: str | None = None,
@@ -221,10 +224,5 @@ def link_from_reduced(reduced, modes: Sequence[int] | None = None, name: str | N
         stiffening): the forces at them stiffen its modes (:func:`frame_views`).
     """
     idx = select_modes(reduced.n_modes, modes, reduced.name)
-    extra = [_attached(reduced, idx, k, base, local)
-             for k, (base, local) in (frames or {}).items()]
-    if plane is not None:
-        for v in extra:
-            v.phi, v.psi = project_on_plane(v.phi, v.psi, plane)
     return link_from_frames(name or reduced.name,
-                            frame_views(reduced, idx, plane, second_order) + extra)
+                            frame_views(reduced, idx, plane, second_order, frames))

@@ -175,22 +175,10 @@ def _selected(reduced, candidates: list[int], rule, plane) -> tuple[int, ...]:
 
 def _flex_frames(reduced, idx, plane, extra, where_frames, second_order: bool = False
                  ) -> list[FrameView]:
-    """Frames of a reduced link restricted to the kept modes (projected on ``plane``; with
-    their second-order translations if ``second_order``: :func:`frame_views`), plus extra
-    frames fixed on existing ones (first order, like the shape matrix; an extra frame takes
-    the second-order terms of the frame it is fixed on)."""
-    views = {v.name: v for v in frame_views(reduced, idx, plane, second_order)}
-    for new, fs in extra.items():
-        if fs.on not in views:
-            raise ConfigError(f"{where_frames}.{new}.on: expected one of {sorted(views)}, "
-                              f"got {fs.on!r}")
-        base = views[fs.on]
-        local = frame_pose(fs, f"{where_frames}.{new}")
-        pose = base.pose @ local
-        views[new] = FrameView(new, pose, base.phi + np.cross(base.psi, base.pose[:3, :3]
-                                                             @ local[:3, 3]), base.psi.copy(),
-                               base.hess)
-    return list(views.values())
+    """Frames of a reduced link restricted to the kept modes, plus the workflow's extra
+    frames fixed on them (:func:`pipeline.dynamics.bodies.frame_views`)."""
+    fixed = {new: (fs.on, frame_pose(fs, f"{where_frames}.{new}")) for new, fs in extra.items()}
+    return frame_views(reduced, idx, plane, second_order, fixed, where_frames)
 
 
 def _reduce(wf: Workflow, name: str, entry, cache_dir: Path, rebuild: bool):
