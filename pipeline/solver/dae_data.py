@@ -39,7 +39,9 @@ class CompiledDae:
     unit : (n,) natural coordinate units.  gravity4 : (4,).
     fkind (F,), fint (F, 4) [coordinate or marker a, marker b, ...], fpar (F, 6)
     [k, q0 or l0, c, preload or F, Fy, Fz], fcons (F,) conservative flag.
-    mlink (Mk,), mc0 (Mk, 3), mca (Mk, MM, 3), midx (Mk, MM), mnm (Mk,): marker points.
+    mlink (Mk,), mc0 (Mk, 3), mca (Mk, MM, 3), midx (Mk, MM), mnm (Mk,), mhe (Mk, MM, MM,
+    3): marker points, c0 + sum_a q_a ca_a + sum_ab q_a q_b he_ab / 2 in their link's frame
+    (he: the second-order translation of the frame they sit on, zero for a first-order one).
     histories : per force element, its history object or None (the caller's factors).
     """
 
@@ -61,6 +63,7 @@ class CompiledDae:
     mca: np.ndarray
     midx: np.ndarray
     mnm: np.ndarray
+    mhe: np.ndarray
     histories: tuple
 
 
@@ -71,19 +74,19 @@ def _marker(mech, marker, offset, MM):
     o = f.pose[:3, :3] @ np.asarray(offset, dtype=float)
     c0 = f.pose[:3, 3] + o
     idx = mech.modal_index[li]
-    ca = np.zeros((MM, 3))
+    ca, he = np.zeros((MM, 3)), np.zeros((MM, MM, 3))
     if idx.size:
         ca[:idx.size] = f.phi + np.cross(f.psi, o)
+        if f.hess is not None:  # the frame's second-order translation (rotations: first order)
+            he[:idx.size, :idx.size] = f.hess
     mi = np.zeros(MM, dtype=np.int64)
     mi[:idx.size] = idx
-    return li, c0, ca, mi, idx.size
+    return li, c0, ca, mi, idx.size, he
 
 
 def compile_dae(system, U: np.ndarray, P: np.ndarray) -> CompiledDae | None:
     """The flat data of ``system``, or None when a force element has no compiled form."""
     mech = system.mechanism
-    if any(f.hess is not None for link in mech.links for f in link.frames):
-        return None  # second-order frames: the compiled marker points are first order
     MM = max([1] + [len(i) for i in mech.modal_index])
     kinds, ints, pars, cons, hist, markers = [], [], [], [], [], []
     for f in system.forces:
@@ -127,7 +130,8 @@ def compile_dae(system, U: np.ndarray, P: np.ndarray) -> CompiledDae | None:
         np.array([m[1] for m in markers], dtype=float).reshape(nm, 3),
         np.array([m[2] for m in markers], dtype=float).reshape(nm, MM, 3),
         np.array([m[3] for m in markers], dtype=np.int64).reshape(nm, MM),
-        np.array([m[4] for m in markers], dtype=np.int64).reshape(nm), tuple(hist))
+        np.array([m[4] for m in markers], dtype=np.int64).reshape(nm),
+        np.array([m[5] for m in markers], dtype=float).reshape(nm, MM, MM, 3), tuple(hist))
 
 
 def force_factors(data: CompiledDae, times: np.ndarray) -> np.ndarray:

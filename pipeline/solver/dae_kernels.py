@@ -37,12 +37,15 @@ def mass_tuple(cm) -> tuple:
 
 
 @njit(cache=True)
-def _marker_point(k, q, A, dA, mlink, mc0, mca, midx, mnm, p, dp):
+def _marker_point(k, q, A, dA, mlink, mc0, mca, midx, mnm, mhe, p, dp):
     """p (3,) = a marker point in ground, dp (n, 3) its derivatives (module dae_data)."""
     li = mlink[k]
     loc = mc0[k].copy()
     for a in range(mnm[k]):
-        loc += q[midx[k, a]] * mca[k, a]
+        qa = q[midx[k, a]]
+        loc += qa * mca[k, a]
+        for b in range(mnm[k]):
+            loc += 0.5 * qa * q[midx[k, b]] * mhe[k, a, b]
     for r in range(3):
         p[r] = A[li, r, 3] + A[li, r, 0] * loc[0] + A[li, r, 1] * loc[1] + A[li, r, 2] * loc[2]
     n = q.shape[0]
@@ -50,18 +53,21 @@ def _marker_point(k, q, A, dA, mlink, mc0, mca, midx, mnm, p, dp):
         for r in range(3):
             dp[i, r] = dA[li, i, r, 3] + dA[li, i, r, 0] * loc[0] + dA[li, i, r, 1] * loc[1] \
                 + dA[li, i, r, 2] * loc[2]
+    ca = np.empty(3)
     for a in range(mnm[k]):
         i = midx[k, a]
+        ca[:] = mca[k, a]
+        for b in range(mnm[k]):
+            ca += mhe[k, a, b] * q[midx[k, b]]
         for r in range(3):
-            dp[i, r] += A[li, r, 0] * mca[k, a, 0] + A[li, r, 1] * mca[k, a, 1] \
-                + A[li, r, 2] * mca[k, a, 2]
+            dp[i, r] += A[li, r, 0] * ca[0] + A[li, r, 1] * ca[1] + A[li, r, 2] * ca[2]
 
 
 @njit(cache=True)
 def _forces(q, v, A, dA, factor, frc, Q, Qnc):
     """Add every compiled force element's generalized force to Q and its non-conservative
     part to Qnc (see :mod:`pipeline.solver.dae_data` for the kinds)."""
-    fkind, fint, fpar, fcons, mlink, mc0, mca, midx, mnm = frc
+    fkind, fint, fpar, fcons, mlink, mc0, mca, midx, mnm, mhe = frc
     n = q.shape[0]
     pa, pb = np.zeros(3), np.zeros(3)
     da, db = np.zeros((n, 3)), np.zeros((n, 3))
@@ -77,8 +83,8 @@ def _forces(q, v, A, dA, factor, frc, Q, Qnc):
             if not fcons[e]:
                 Qnc[i] += fpar[e, 3] * factor[e]
         elif kind == 2:
-            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, pa, da)
-            _marker_point(fint[e, 1], q, A, dA, mlink, mc0, mca, midx, mnm, pb, db)
+            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, pa, da)
+            _marker_point(fint[e, 1], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, pb, db)
             d = pb - pa
             length = np.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
             u = d / length
@@ -89,7 +95,7 @@ def _forces(q, v, A, dA, factor, frc, Q, Qnc):
                 Q[i] -= tension * dl[i]
                 Qnc[i] -= fpar[e, 2] * rate * dl[i]
         else:
-            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, pa, da)
+            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, pa, da)
             for i in range(n):
                 s = factor[e] * (da[i, 0] * fpar[e, 3] + da[i, 1] * fpar[e, 4]
                                  + da[i, 2] * fpar[e, 5])
@@ -420,7 +426,7 @@ def _gravity_potential(q, A, g, mass):
 @njit(cache=True)
 def _force_potential(q, A, dA, frc):
     """Potential energy (J) of the conservative compiled force elements."""
-    fkind, fint, fpar, fcons, mlink, mc0, mca, midx, mnm = frc
+    fkind, fint, fpar, fcons, mlink, mc0, mca, midx, mnm, mhe = frc
     n = q.shape[0]
     V = 0.0
     p, pb = np.zeros(3), np.zeros(3)
@@ -433,12 +439,12 @@ def _force_potential(q, A, dA, frc):
         elif kind == 1 and fcons[e]:
             V -= fpar[e, 3] * q[fint[e, 0]]
         elif kind == 2:
-            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, p, dp)
-            _marker_point(fint[e, 1], q, A, dA, mlink, mc0, mca, midx, mnm, pb, dp)
+            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, p, dp)
+            _marker_point(fint[e, 1], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, pb, dp)
             x = np.sqrt(np.sum((pb - p) ** 2)) - fpar[e, 1]
             V += fpar[e, 3] * x + 0.5 * fpar[e, 0] * x * x
         elif kind == 3 and fcons[e]:
-            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, p, dp)
+            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, p, dp)
             V -= fpar[e, 3] * p[0] + fpar[e, 4] * p[1] + fpar[e, 5] * p[2]
     return V
 

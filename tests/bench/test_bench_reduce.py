@@ -39,7 +39,7 @@ CASE = textwrap.dedent("""
     t0 = time.perf_counter()
     link = reduce_link(request, times)
     total = time.perf_counter() - t0
-    cases = 6 + 3 * len(link.frames) if sys.argv[3] == "1" else 0
+    cases = 12 + 3 * len(link.frames) if sys.argv[3] == "1" else 0  # inertia + frame forces
     print(json.dumps({"dof": link.meta["n_dof"], "modes": link.n_modes,
                       "f1_hz": float(link.frequencies_hz[0]), "total_s": total,
                       "stages_s": times.as_dict(), "stiffening_cases": cases,

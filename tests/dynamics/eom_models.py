@@ -188,11 +188,13 @@ def flexible_double_pendulum(seed=0, n_modes=3, k_scale=200.0, zeta=None, g=9.81
                  [c1.m, c2.m] + [MOVING_WEIGHTS] * pairs)
 
 
-def flexible_four_bar(seed=1, n_modes=3, a=1.0, b=2.2, c=2.0, d=2.5):
+def flexible_four_bar(seed=1, n_modes=3, a=1.0, b=2.2, c=2.0, d=2.5, second_order=False):
     """Four-bar (kin_models conventions) with a flexible coupler and cloud masses.
 
     Tree from ground: J2 -> crank, J1 -> rocker, J3 -> coupler; J4 is cut.
-    Coordinates: J2, J3, J4, J1, coupler.eta1..m.
+    Coordinates: J2, J3, J4, J1, coupler.eta1..m. ``second_order``: the coupler's frame B
+    also has a random in-plane second-order translation (``Frame.hess``) and the coupler
+    random second-order mass moments (the hand-coded positions do not follow them).
     """
     rng = np.random.default_rng(seed)
     cc = cloud(rng, a, 0, mass=1.0)
@@ -203,8 +205,15 @@ def flexible_four_bar(seed=1, n_modes=3, a=1.0, b=2.2, c=2.0, d=2.5):
     Mm = np.einsum("g,agi,bgi->ab", cb.m, cb.phi, cb.phi)
     K = 500.0 * np.diag(np.diag(Mm)) * (1.0 + np.arange(n_modes)) ** 2
     T = translation
-    coupler = (flexible_link("coupler", {"B": (T([b, 0, 0]), phiB, psiB)}) if n_modes else
-               rigid_link("coupler", {"B": T([b, 0, 0])}))
+    hessB, moments = None, None
+    if second_order and n_modes:
+        hessB = 0.05 * rng.standard_normal((n_modes, n_modes, 3))
+        hessB = hessB + hessB.transpose(1, 0, 2)
+        hessB[..., 2] = 0.0
+        moments = 0.02 * np.trace(Mm) * rng.standard_normal((n_modes, n_modes, 4, 3))
+        moments = moments + moments.transpose(1, 0, 2, 3)
+    coupler = (flexible_link("coupler", {"B": (T([b, 0, 0]), phiB, psiB, hessB)}) if n_modes
+               else rigid_link("coupler", {"B": T([b, 0, 0])}))
     links = [rigid_link("ground", {"O4": T([d, 0, 0])}), rigid_link("crank", {"A": T([a, 0, 0])}),
              coupler,
              rigid_link("rocker", {"B": T([c, 0, 0])})]
@@ -214,7 +223,10 @@ def flexible_four_bar(seed=1, n_modes=3, a=1.0, b=2.2, c=2.0, d=2.5):
               Joint("J4", "revolute", "coupler", "B", "rocker", "B", (th4 - th3,)),
               Joint("J1", "revolute", "ground", "O4", "rocker", "body", (th4,))]
     mech = build_mechanism(links, joints)
-    system = System(mech, {"crank": cc.body(), "coupler": cb.body(K), "rocker": cr.body()},
+    coupler_body = cb.body(K)
+    if moments is not None:
+        coupler_body = replace(coupler_body, second_order_moments=moments)
+    system = System(mech, {"crank": cc.body(), "coupler": coupler_body, "rocker": cr.body()},
                     gravity=[0.0, -9.81, 0.0])
 
     def positions(q):

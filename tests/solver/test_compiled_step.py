@@ -1,7 +1,8 @@
 """The compiled index-3 step and output state equal their numpy reference (index3.py,
 constrained.py, outputs.py) on machines that use every compiled ingredient: closed loops
 with redundant rows, drivers, flexible links, joint springs, point-to-point springs, a
-motor torque, a load with a time history, and an open chain (no closure rows)."""
+motor torque, a load with a time history, an open chain (no closure rows), and a flexible
+link with second-order frames and mass moments (geometric stiffening)."""
 
 from __future__ import annotations
 
@@ -46,11 +47,14 @@ def _andrews():
     return s, q0, qd0
 
 
-def _flexible_four_bar():
-    s = flexible_four_bar(n_modes=2).system
+def _flexible_four_bar(second_order=False):
+    s = flexible_four_bar(n_modes=2, second_order=second_order).system
     spring = JointSpringDamper("spring", "J2.theta", stiffness=30.0, free_value=1.0,
                                damping=0.5)
-    s = System(s.mechanism, s.bodies, s.gravity, forces=(spring,))
+    # second order: a load at the coupler's frame B, whose second-order translation it
+    # works through (the compiled marker points carry it)
+    push = (PointForce("push", ("coupler", "B"), (30.0, -20.0, 0.0)),) if second_order else ()
+    s = System(s.mechanism, s.bodies, s.gravity, forces=(spring,) + push)
     q0 = assemble(s.mechanism, s.mechanism.q_initial).q
     return s, q0, initial_velocities(s.mechanism, q0, given={"J2.theta": 2.0})
 
@@ -62,7 +66,9 @@ def _pendulum():
 
 
 CASES = {"excavator": (_excavator, 2e-3), "andrews": (_andrews, 1e-5),
-         "flexible four-bar": (_flexible_four_bar, 2e-3), "open chain": (_pendulum, 2e-3)}
+         "flexible four-bar": (_flexible_four_bar, 2e-3), "open chain": (_pendulum, 2e-3),
+         "second-order frames and mass moments":
+             (lambda: _flexible_four_bar(second_order=True), 2e-3)}
 
 
 @pytest.mark.parametrize("case", sorted(CASES))
