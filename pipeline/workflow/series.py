@@ -173,6 +173,10 @@ def stress_series(result, mech, parts, spec: str) -> Series:
     if not part.modes:  # a case that keeps no mode: the link is rigid, its stress unknown
         return Series(np.full(len(result.t), np.nan), f"{label} (rigid case)", unit)
     S = np.asarray(part.reduced.stress_modes, dtype=float)[list(part.modes), node]  # (k, 6)
+    if beam and _carried_by_none(S, RESULTANTS.index(comp)):
+        # e.g. a pinned rod's axial force without its axial mode: zero whatever the loads
+        return Series(np.full(len(result.t), np.nan),
+                      f"{label} (none of the kept modes carries it)", unit)
     eta = result.q[:, mech.modal_index[mech.link_index(link)]]
     s = eta @ S  # (T, 6)
     if beam:
@@ -184,6 +188,15 @@ def stress_series(result, mech, parts, spec: str) -> Series:
     else:
         v = s[:, VOIGT.index(comp)]
     return Series(v, label, unit)
+
+
+def _carried_by_none(S: np.ndarray, c: int, rtol: float = 1e-9) -> bool:
+    """Whether beam resultant c of the stress modes S (k, 6) [N Vy Vz T My Mz] at a node is
+    round-off in every kept mode, against the largest resultant of its kind (forces or
+    moments) there: the series would read zero whatever the loads."""
+    kind = slice(0, 3) if c < 3 else slice(3, 6)
+    scale = np.abs(S[:, kind]).max(initial=0.0)
+    return scale > 0.0 and np.abs(S[:, c]).max() <= rtol * scale
 
 
 def _stress_target(spec: str, mech, parts) -> tuple[str, str, str, int]:

@@ -81,3 +81,20 @@ def test_a_case_without_modes_has_no_stress(tmp_path):
     r = run_analysis(m, "sag")
     mz = series(r, m.mechanism, "stress:bar.root:Mz", m.parts)
     assert mz.unit == "N m" and np.isnan(mz.values).all() and "rigid case" in mz.label
+
+
+def test_a_resultant_no_kept_mode_carries_is_not_reported_as_zero(tmp_path):
+    """The bar with two bending modes in its xy plane and no constraint modes: they carry
+    no axial force, so its series would read zero whatever pulled the bar (a pinned rod's
+    axial force without its axial mode) -- NaN, saying why; the bending moment is there."""
+    (tmp_path / "bar.yaml").write_text(BAR.replace("{count: 4, craig_bampton: true}",
+                                                   "{count: 4}"))
+    (tmp_path / "loaded.yaml").write_text(WORKFLOW.replace(
+        "{type: flexible, spec: bar.yaml}", "{type: flexible, spec: bar.yaml, modes: 2, "
+                                            "plane: xy}"))
+    m = build_machine(load_workflow(tmp_path / "loaded.yaml"), tmp_path / "links")
+    r = run_analysis(m, "sag")
+    n = series(r, m.mechanism, "stress:bar.root:N", m.parts)
+    assert np.isnan(n.values).all() and "none of the kept modes carries it" in n.label
+    mz = series(r, m.mechanism, "stress:bar.root:Mz", m.parts)
+    assert np.isfinite(mz.values).all() and abs(mz.values[0]) > 0.5 * F * L
