@@ -7,7 +7,7 @@ import pytest
 
 
 @pytest.mark.parametrize("name", ["double_pendulum", "front_loader", "mobile_crane",
-                                  "tractor_trailer"])
+                                  "slider_crank", "tractor_trailer"])
 def test_shipped_workflow_is_ok(quick_run, name):
     man = quick_run(name).manifest
     bad = {a: [(c["case"], c["verdict"], c["warnings"] or c["message"]) for c in cases
