@@ -147,13 +147,7 @@ class ReducedLink:
         deta_b (m per modal unit^2, body axes, frames in order) of the kept ``modes``
         (default all): ``-K_F,f,k`` of the unit force cases
         (:mod:`pipeline.invariants.stiffening`); None without geometric stiffening."""
-        KF = np.asarray(self.force_geometric_stiffness, dtype=float)
-        if not KF.size:
-            return None
-        if modes is not None:
-            idx = list(modes)
-            KF = KF[:, :, idx][:, :, :, idx]
-        return -np.transpose(KF, (0, 2, 3, 1))
+        return _second_derivatives(self.force_geometric_stiffness, modes, (0, 2, 3, 1))
 
     def second_order_moments(self, modes=None) -> np.ndarray | None:
         """(m, m, 4, 3) G_ab[j, k] = d2(int rho xb_j u_k dV)/deta_a deta_b, the second-order
@@ -162,13 +156,7 @@ class ReducedLink:
         ``-K_jk`` of the unit inertia cases
         (:func:`pipeline.invariants.stiffening.inertia_stiffness`); None without
         geometric stiffening. G_ab[3] is the second-order first moment."""
-        KI = np.asarray(self.inertia_geometric_stiffness, dtype=float)
-        if not KI.size:
-            return None
-        if modes is not None:
-            idx = list(modes)
-            KI = KI[:, :, idx][:, :, :, idx]
-        return -np.transpose(KI, (2, 3, 0, 1))
+        return _second_derivatives(self.inertia_geometric_stiffness, modes, (2, 3, 0, 1))
 
     def frame(self, name: str) -> FrameModes:
         """The frame called ``name``; KeyError lists the available ones."""
@@ -195,3 +183,16 @@ class ReducedLink:
             "stage_seconds": dict(self.meta.get("stage_seconds", {})),
             "input_hash": self.meta.get("input_hash", ""),
         }
+
+
+def _second_derivatives(K, modes, axes) -> np.ndarray | None:
+    """Second derivatives from geometric stiffnesses K (..., m, m) by virtual work: -K on
+    the kept ``modes`` (None: all) of its last two axes, transposed by ``axes``; None if
+    K is empty (no geometric stiffening)."""
+    K = np.asarray(K, dtype=float)
+    if not K.size:
+        return None
+    if modes is not None:
+        idx = list(modes)
+        K = K[..., idx, :][..., idx]
+    return -np.transpose(K, axes)
