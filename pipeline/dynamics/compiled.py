@@ -40,7 +40,8 @@ class CompiledMasses:
 
     link (B,) link index; n_modes (B,); idx (B, MM) modal coordinates in q;
     C (B, 4, 4); Cp (B, MM, 4, 4); Cpp (B, MM, MM, 4, 4); G (B, MM, MM, 4, 3) the
-    second-order mass moments (zeros where a link has none).
+    second-order mass moments (zeros where a link has none); has_G (B,) whether a link has
+    them (the kernels skip their terms for the others).
     """
 
     link: np.ndarray
@@ -50,6 +51,7 @@ class CompiledMasses:
     Cp: np.ndarray
     Cpp: np.ndarray
     G: np.ndarray
+    has_G: np.ndarray
 
 
 def compile_masses(system) -> CompiledMasses:
@@ -60,7 +62,7 @@ def compile_masses(system) -> CompiledMasses:
     out = CompiledMasses(np.zeros(B, dtype=np.int64), np.zeros(B, dtype=np.int64),
                          np.zeros((B, MM), dtype=np.int64), np.zeros((B, 4, 4)),
                          np.zeros((B, MM, 4, 4)), np.zeros((B, MM, MM, 4, 4)),
-                         np.zeros((B, MM, MM, 4, 3)))
+                         np.zeros((B, MM, MM, 4, 3)), np.zeros(B, dtype=np.bool_))
     for b, (li, body, idx) in enumerate(links):
         m = body.n_modes
         out.link[b], out.n_modes[b] = li, m
@@ -70,6 +72,7 @@ def compile_masses(system) -> CompiledMasses:
         out.Cpp[b, :m, :m] = body.Cpp
         if body.second_order_moments.size:
             out.G[b, :m, :m] = body.second_order_moments
+            out.has_G[b] = True
     return out
 
 
@@ -89,7 +92,7 @@ def inertia_terms(cm: CompiledMasses, tree, q: np.ndarray, qd: np.ndarray | None
                        np.ascontiguousarray(tree.A), np.ascontiguousarray(tree.dA),
                        np.ascontiguousarray(Ad), np.ascontiguousarray(Add),
                        gravity4, cm.link, cm.n_modes,
-                       cm.idx, cm.C, cm.Cp, cm.Cpp, cm.G)
+                       cm.idx, cm.C, cm.Cp, cm.Cpp, cm.G, cm.has_G)
     return M, (h if rates else None), Qg
 
 
@@ -113,7 +116,7 @@ def _mmt_add(X, Y, c, out):
 
 
 @njit(cache=True)
-def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G):
+def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G, has_G):
     n = q.shape[0]
     MM = Cp.shape[1]
     M = np.zeros((n, n))
@@ -151,7 +154,7 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G):
             J += q[idx[b, a]] * (N[a] - Cp[b, a])  # sum_ab eta_a eta_b C''_ba
         # the second-order mass moments: J += S + S^T (S = sum eta_a eta_b G_ab / 2 in
         # the first three columns), N_a[:, :3] += sum_b G_ab eta_b
-        for a in range(m):
+        for a in range(m if has_G[b] else 0):
             ea = q[idx[b, a]]
             for c in range(m):
                 ec = q[idx[b, c]]
@@ -211,7 +214,7 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G):
                 T1 += qd[idx[b, c]] * N[c]
             _mmt_add(Ad[li], T1, 2.0, Z)
             # Z += A[:, :3] S''^T, S'' = sum eta'_a eta'_b G_ab
-            for j in range(4):
+            for j in range(4 if has_G[b] else 0):
                 for k in range(3):
                     sjk = 0.0
                     for a in range(m):
@@ -258,13 +261,13 @@ def closed_state(kin, masses: CompiledMasses, q_guess: np.ndarray, rows: np.ndar
                         np.ascontiguousarray(accels_cols, dtype=float), weights, tol, max_iter,
                         max_move, gravity4, kin.arrays(), masses.link,
                         masses.n_modes, masses.idx, masses.C, masses.Cp, masses.Cpp,
-                        masses.G)
+                        masses.G, masses.has_G)
     return out[1:] if out[0] else None
 
 
 @njit(cache=True)
 def _closed_state(q, rows, dep, cols, rates_cols, accels_cols, weights, tol, max_iter,
-                  max_move, g, kin, link, m_modes, idx, C, Cp, Cpp, G):
+                  max_move, g, kin, link, m_modes, idx, C, Cp, Cpp, G, has_G):
     n = q.shape[0]
     nd, nc = dep.shape[0], cols.shape[0]
     qd = np.zeros(n)
@@ -333,7 +336,8 @@ def _closed_state(q, rows, dep, cols, rates_cols, accels_cols, weights, tol, max
         cacc[cols[c]] = accels_cols[c]
     for a in range(nd):
         cacc[dep[a]] = cd[a]
-    M, h, Qg = _kernel(q, qd, True, A, dA, Ad, Add, g, link, m_modes, idx, C, Cp, Cpp, G)
+    M, h, Qg = _kernel(q, qd, True, A, dA, Ad, Add, g, link, m_modes, idx, C, Cp, Cpp, G,
+                       has_G)
     return True, q, r, J, X, qd, cacc, A, dA, Ad, Add, M, h, Qg
 
 

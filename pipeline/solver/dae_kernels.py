@@ -33,7 +33,7 @@ def kin_tuple(cm) -> tuple:
 
 
 def mass_tuple(cm) -> tuple:
-    return (cm.link, cm.n_modes, cm.idx, cm.C, cm.Cp, cm.Cpp, cm.G)
+    return (cm.link, cm.n_modes, cm.idx, cm.C, cm.Cp, cm.Cpp, cm.G, cm.has_G)
 
 
 @njit(cache=True)
@@ -398,7 +398,7 @@ def march(q, v, qdd, a, lam, t0, h, qP, vP, aP, factors, work, powers, par, unit
 @njit(cache=True)
 def _gravity_potential(q, A, g, mass):
     """V = -sum_b g . (first moment of body b in ground) (J(eta)[:, 3] per body), J."""
-    link, n_modes, idx, C, Cp, Cpp, G = mass
+    link, n_modes, idx, C, Cp, Cpp, G, has_G = mass
     V = 0.0
     col = np.empty(4)
     for b in range(link.shape[0]):
@@ -412,7 +412,7 @@ def _gravity_potential(q, A, g, mass):
                 ec = q[idx[b, c]]
                 for k in range(4):
                     col[k] += ea * ec * Cpp[b, a, c, k, 3]
-                for k in range(3):
+                for k in range(3 if has_G[b] else 0):
                     col[k] += 0.5 * ea * ec * G[b, a, c, 3, k]
         Al = A[link[b]]
         for r in range(4):
