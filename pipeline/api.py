@@ -98,7 +98,8 @@ def reduce_link(spec: str | Path, cache_dir: str | Path = "output/links",
 
 
 __all__ = [
-    "JOINTS", "BodyMass", "Constant", "Curve", "ForceCylinder", "Harmonic", "Joint", "JointSpringDamper", "Limits", "LinkShape", "Panel", "Picture",
+    "JOINTS", "BodyMass", "Constant", "Curve", "ForceCylinder", "Harmonic", "Joint",
+    "JointSpringDamper", "Limits", "LinkShape", "Panel", "Picture",
     "PointForce", "Ramp", "ReducedLink", "SimulationResult", "SmoothStep", "SpringDamper",
     "Style", "System", "Table", "Torque", "animate_machine", "body_from_reduced",
     "build_machine", "build_mechanism", "dof_report", "effective_mass_fractions", "energies",

@@ -39,9 +39,9 @@ from pipeline.fem.beam import (
 from pipeline.fem.model import FemModel
 
 __all__ = ["CENTRIFUGAL_CASES", "INERTIA_CASES", "acceleration_loads", "beam_axial_forces",
-           "beam_geometric_stiffness",
-           "centrifugal_fields", "centrifugal_loads", "centrifugal_products", "centrifugal_tensor",
-           "inertia_loads", "solid_centrifugal_loads", "solid_modal_geometric_stiffness"]
+           "beam_geometric_stiffness", "centrifugal_fields", "centrifugal_loads",
+           "centrifugal_products", "centrifugal_tensor", "inertia_loads",
+           "solid_centrifugal_loads", "solid_modal_geometric_stiffness"]
 
 #: The six products of angular-velocity components the centrifugal field is linear in.
 CENTRIFUGAL_CASES = ("wx^2", "wy^2", "wz^2", "wx*wy", "wx*wz", "wy*wz")

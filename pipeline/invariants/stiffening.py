@@ -22,10 +22,11 @@ them (:func:`centrifugal_from_inertia`), kept in the artifact for inspection.
 (applied loads at its pins and markers). Beam links and P2 solids.
 
 The force cases double as the frames' **second-order kinematics**
-(:meth:`pipeline.invariants.reduced_link.ReducedLink.frame_hessians`). A unit force along body axis k at frame f does, through the
-second-order displacement of its point of application, the work that its prestress does
-through the nonlinear strain (virtual work with the Green-Lagrange strain; for a bar,
-the chord shortens by ``int w'^2 dx / 2``), so the frame's translation to second order is
+(:meth:`pipeline.invariants.reduced_link.ReducedLink.frame_hessians`). A unit force along
+body axis k at frame f does, through the second-order displacement of its point of
+application, the work that its prestress does through the nonlinear strain (virtual work
+with the Green-Lagrange strain; for a bar, the chord shortens by ``int w'^2 dx / 2``), so
+the frame's translation to second order is
 
     r_f,k(eta) = r_f,k(0) + phi_f,k eta - eta^T K_F,f,k eta / 2.
 

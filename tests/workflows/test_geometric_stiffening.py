@@ -61,29 +61,37 @@ analyses:
     markers: [beam.tip]
 """
 
+#: roots beta_i L of the clamped-free Euler-Bernoulli beam's frequency equation
 EB_ROOTS = np.array([1.875104068711961, 4.694091132974175, 7.854757438237613,
-                     10.99554073487547, 14.13716839104647])
+                     10.99554073487547, 14.13716839104647, 17.27875953208824])
+
+
+def clamped_free_shapes(length: float, roots: np.ndarray):
+    """Closed-form clamped-free mode shapes at 400 Gauss points of [0, length]: points x,
+    weights w, shapes P, slopes D and curvatures DD (n, 400), tip values (n,)."""
+    xg, wg = np.polynomial.legendre.leggauss(400)
+    x, w = 0.5 * length * (xg + 1), 0.5 * length * wg
+    P, D, DD, tip = [], [], [], []
+    for b in roots / length:
+        bl = b * length
+        s = (np.cosh(bl) + np.cos(bl)) / (np.sinh(bl) + np.sin(bl))
+        P.append(np.cosh(b * x) - np.cos(b * x) - s * (np.sinh(b * x) - np.sin(b * x)))
+        D.append(b * (np.sinh(b * x) + np.sin(b * x) - s * (np.cosh(b * x) - np.cos(b * x))))
+        DD.append(b * b * (np.cosh(b * x) + np.cos(b * x) - s * (np.sinh(b * x) + np.sin(b * x))))
+        tip.append(np.cosh(bl) - np.cos(bl) - s * (np.sinh(bl) - np.sin(bl)))
+    return x, w, np.array(P), np.array(D), np.array(DD), np.array(tip)
 
 
 def rayleigh_ritz_tip(rate: float, t: np.ndarray, stiffening: bool = True) -> np.ndarray:
     """Tip deflection (m) of the hand-written rotating-frame model at the times t (s)."""
-    xg, wg = np.polynomial.legendre.leggauss(400)
-    x, w = 0.5 * L * (xg + 1), 0.5 * L * wg
-    P, D, DD, tip = [], [], [], []
-    for b in EB_ROOTS / L:
-        s = (np.cosh(b * L) + np.cos(b * L)) / (np.sinh(b * L) + np.sin(b * L))
-        P.append(np.cosh(b * x) - np.cos(b * x) - s * (np.sinh(b * x) - np.sin(b * x)))
-        D.append(b * (np.sinh(b * x) + np.sin(b * x) - s * (np.cosh(b * x) - np.cos(b * x))))
-        DD.append(b * b * (np.cosh(b * x) + np.cos(b * x) - s * (np.sinh(b * x) + np.sin(b * x))))
-        tip.append(np.cosh(b * L) - np.cos(b * L) - s * (np.sinh(b * L) - np.sin(b * L)))
-    P, D, DD = np.array(P), np.array(D), np.array(DD)
+    x, w, P, D, DD, tip = clamped_free_shapes(L, EB_ROOTS[:5])
     M = (P * w * RHO_A) @ P.T
     K = (DD * w * EI) @ DD.T
     KG = (D * w * RHO_A * 0.5 * (L ** 2 - x ** 2)) @ D.T if stiffening else 0.0 * M
     p = (P * w * RHO_A) @ x
     spin = SpinUp(T_RAMP, rate)
     Minv = np.linalg.inv(M)
-    n = len(EB_ROOTS)
+    n = len(tip)
 
     def rhs(tt, y):
         rate_t, acc_t = spin.state(tt)[1:]
@@ -91,7 +99,7 @@ def rayleigh_ritz_tip(rate: float, t: np.ndarray, stiffening: bool = True) -> np
 
     sol = solve_ivp(rhs, (t[0], t[-1]), np.zeros(2 * n), t_eval=t, method="DOP853",
                     rtol=1e-10, atol=1e-12)
-    return np.array(tip) @ sol.y[:n]
+    return tip @ sol.y[:n]
 
 
 def _run(tmp_path, rate: float, stiffening: bool = True):
@@ -433,15 +441,7 @@ def column_frequency(q: float) -> float:
     import scipy.linalg as sla
 
     EI, mu, Lc = ROD_E * ROD_IZ, RHO * ROD_A, COLUMN_L
-    xg, wg = np.polynomial.legendre.leggauss(400)
-    x, w = 0.5 * Lc * (xg + 1), 0.5 * Lc * wg
-    P, D, DD = [], [], []
-    for b in np.r_[EB_ROOTS, 17.27875953208824] / Lc:
-        s = (np.cosh(b * Lc) + np.cos(b * Lc)) / (np.sinh(b * Lc) + np.sin(b * Lc))
-        P.append(np.cosh(b * x) - np.cos(b * x) - s * (np.sinh(b * x) - np.sin(b * x)))
-        D.append(b * (np.sinh(b * x) + np.sin(b * x) - s * (np.cosh(b * x) - np.cos(b * x))))
-        DD.append(b * b * (np.cosh(b * x) + np.cos(b * x) - s * (np.sinh(b * x) + np.sin(b * x))))
-    P, D, DD = np.array(P), np.array(D), np.array(DD)
+    x, w, P, D, DD, _ = clamped_free_shapes(Lc, EB_ROOTS)
     K = (DD * w * EI) @ DD.T - (D * w * q * (Lc - x)) @ D.T
     lam = sla.eigh(K, (P * w * mu) @ P.T, eigvals_only=True)[0]
     return float(np.sign(lam) * np.sqrt(abs(lam)) / (2 * np.pi))

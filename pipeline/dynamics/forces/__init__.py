@@ -27,5 +27,6 @@ FORCES: dict[str, type[ForceElement]] = {
     "force_cylinder": ForceCylinder,
 }
 
-__all__ = ["FORCES", "FollowerForce", "ForceCylinder", "ForceElement", "JointForce", "JointSpringDamper", "LineForce", "MarkerPoint", "PointForce",
+__all__ = ["FORCES", "FollowerForce", "ForceCylinder", "ForceElement", "JointForce",
+           "JointSpringDamper", "LineForce", "MarkerPoint", "PointForce",
            "SpringDamper", "TableSpringDamper", "Torque", "marker_point", "marker_pose"]
