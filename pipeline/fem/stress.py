@@ -21,6 +21,7 @@ vectors (one per mode) and return a block of fields: the *stress modes*.
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 from pipeline.fem.model import FemModel
 from pipeline.fem.p2_kernel import EDGES, inverse_and_det, p2_shape
@@ -71,28 +72,47 @@ def _reference_nodes() -> np.ndarray:
     return np.vstack([V, [(V[i] + V[j]) / 2 for i, j in EDGES]])
 
 
-def solid_nodal_stress(model: FemModel, U: np.ndarray) -> np.ndarray:
-    """(m, n_nodes, 6) nodal-averaged P2 stress, Pa, of displacements U (n_dof, m), m."""
+def solid_nodal_stress(model: FemModel, U: np.ndarray, chunk: int = 1024) -> np.ndarray:
+    """(m, n_nodes, 6) nodal-averaged P2 stress, Pa, of displacements U (n_dof, m), m.
+
+    All columns at once, ``chunk`` elements at a time: per element one batched product of
+    its shape-function gradients at its nodes (30, 10) with its nodal displacements
+    (10, 3 m), then one sparse sum per chunk into the nodes.
+    """
     U = np.asarray(U, dtype=float).reshape(model.n_dof, -1)
+    m = U.shape[1]
     cells = np.asarray(model.extras["cells"])  # (e, 10) model node ids, P2 local order
     lam, mu = model.extras["material"].lame
     _, dN = p2_shape(_reference_nodes().T)  # (10 points, 10 functions, 3)
-    X = model.nodes[cells]  # (e, 10, 3)
-    J = np.einsum("eni,pnk->epik", X, dN, optimize=True)  # dx_i/dxi_k at each node
-    invJ, _ = inverse_and_det(J)
-    G = np.einsum("pnk,epka->epna", dN, invJ, optimize=True)  # dN_n/dx_a, (e, p, n, 3)
     count = np.bincount(cells.ravel(), minlength=model.n_nodes).astype(float)
-    out = np.zeros((U.shape[1], model.n_nodes, 6))
-    for a in range(U.shape[1]):
-        u = U[model.node_dofs, a][cells]  # (e, 10, 3)
-        grad = np.einsum("epna,enb->epba", G, u, optimize=True)  # du_b/dx_a -> [b, a]
-        eps = 0.5 * (grad + np.swapaxes(grad, -1, -2))
-        tr = np.trace(eps, axis1=-2, axis2=-1)
-        voigt = tensor_to_voigt(2 * mu * eps + lam * tr[..., None, None] * np.eye(3))
-        for c in range(6):
-            out[a, :, c] = np.bincount(cells.ravel(), voigt[..., c].ravel(),
-                                       minlength=model.n_nodes)
-    return out / np.maximum(count, 1.0)[None, :, None]
+    total = np.zeros((model.n_nodes, 6 * m))
+    for s in range(0, cells.shape[0], chunk):
+        c = cells[s:s + chunk]
+        e = c.shape[0]
+        J = np.einsum("eni,pnk->epik", model.nodes[c], dN, optimize=True)  # dx_i/dxi_k
+        invJ, _ = inverse_and_det(J)
+        G = np.einsum("pnk,epka->epan", dN, invJ, optimize=True)  # dN_n/dx_a at point p
+        u = U[model.node_dofs[c]]  # (e, 10, 3, m)
+        g = np.matmul(G.reshape(e, 30, 10), u.reshape(e, 10, 3 * m))
+        # g[:, p, 3 a + b] = du_b/dx_a at the element's node p
+        g = g.reshape(e, 10, 9, m)
+        tr = g[:, :, 0] + g[:, :, 4] + g[:, :, 8]
+        tr *= lam
+        sigma = np.empty((e, 10, 6, m))
+        for k, (i, j) in enumerate(zip(_VI, _VJ)):
+            if i == j:  # sigma_ii = 2 mu eps_ii + lam tr(eps)
+                np.multiply(g[:, :, 4 * i], 2 * mu, out=sigma[:, :, k])
+                sigma[:, :, k] += tr
+            else:  # sigma_ij = mu (du_i/dx_j + du_j/dx_i)
+                np.add(g[:, :, 3 * i + j], g[:, :, 3 * j + i], out=sigma[:, :, k])
+                sigma[:, :, k] *= mu
+        # the chunk's own nodes only: a sum into all nodes would touch n_nodes x 6 m
+        nodes, local = np.unique(c, return_inverse=True)
+        to_nodes = sp.csr_matrix((np.ones(e * 10), (local.ravel(), np.arange(e * 10))),
+                                 shape=(nodes.size, e * 10))
+        total[nodes] += to_nodes @ sigma.reshape(e * 10, 6 * m)
+    total /= np.maximum(count, 1.0)[:, None]
+    return np.ascontiguousarray(total.reshape(model.n_nodes, 6, m).transpose(2, 0, 1))
 
 
 def beam_nodal_resultants(model: FemModel, U: np.ndarray) -> np.ndarray:

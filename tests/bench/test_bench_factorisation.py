@@ -49,7 +49,7 @@ def _clamped_boom():
 def _superlu(K):
     from pipeline.modes.eigen import factorize
 
-    lu = factorize(K)
+    lu = factorize(K, backend="superlu")
     return lu.solve, int(lu.L.nnz + lu.U.nnz)
 
 

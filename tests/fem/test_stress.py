@@ -101,6 +101,28 @@ def test_uniform_strain_stress_is_exact_everywhere():
     np.testing.assert_allclose(s, np.tile(voigt, (model.n_nodes, 1)), rtol=1e-9, atol=1e-3)
 
 
+@pytest.mark.parametrize("chunk", [5, 1024])
+def test_several_columns_in_chunks_each_exact(chunk):
+    """Three uniform strains at once, the elements taken a few at a time: each column's
+    stress is its own Hooke's law (the columns and the chunks are not mixed up)."""
+    from skfem import MeshTet
+
+    sk = MeshTet.init_tensor(*[np.linspace(0, 1, 3)] * 3)
+    mat = Material(E=200e9, nu=0.3, rho=7800.0)
+    model = assemble_solid(MeshData(sk.p.T, {"tetra": sk.t.T}, "solid"), mat, "cube")
+    grads = np.random.default_rng(3).standard_normal((3, 3, 3)) * 1e-4
+    U = np.zeros((model.n_dof, 3))
+    for a, G in enumerate(grads):
+        U[model.node_dofs.ravel(), a] = (model.nodes @ G.T).ravel()
+    s = solid_nodal_stress(model, U, chunk=chunk)
+    lam, mu = mat.lame
+    for a, G in enumerate(grads):
+        eps = 0.5 * (G + G.T)
+        sig = lam * np.trace(eps) * np.eye(3) + 2 * mu * eps
+        np.testing.assert_allclose(s[a], np.tile(tensor_to_voigt(sig), (model.n_nodes, 1)),
+                                   rtol=1e-9, atol=1e-3)
+
+
 def test_invariants_of_known_states():
     hydro = np.array([5.0, 5.0, 5.0, 0, 0, 0])
     assert von_mises(hydro) == pytest.approx(0.0, abs=1e-12)
