@@ -143,8 +143,11 @@ def check_connected(tied: TiedModel, space, where: str) -> None:
     node outside every element) would move as a rigid body. Exact and free of scale."""
     from scipy.sparse.csgraph import connected_components
 
-    K = tied.stiffness.tocsr()
-    n, labels = connected_components(K != 0, directed=False)
+    K = tied.stiffness.tocsr(copy=True)
+    K.eliminate_zeros()  # a stored zero couples nothing
+    # weak components of the (symmetric) pattern: the same sets as undirected ones,
+    # without building K + K^T
+    n, labels = connected_components(K, directed=True, connection="weak")
     if n == 1:
         return
     held = np.unique(labels[np.asarray(space.dep)])
