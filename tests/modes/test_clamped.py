@@ -182,3 +182,21 @@ def test_a_fine_beam_mesh_is_reduced_with_a_warning_not_refused():
     assert basis.frequencies_hz[0] == pytest.approx(
         1.8751 ** 2 / (2 * np.pi * 24.0 ** 2) * np.sqrt(EI / m), rel=1e-3)
     assert "round-off" in basis.settings["warnings"][0]
+
+
+@pytest.mark.parametrize("root_kind, chord", [("rbe2", None), ("rbe3", None), ("rbe2", "tip")])
+def test_projection_is_l_transpose_a_l(root_kind, chord):
+    """The clamped space's projection (a selection plus low-rank terms) equals L^T A L
+    formed densely, for a clamp by masters, by pivoting (RBE3) and by the chord; A is
+    unsymmetric so that no term can stand in for its transpose."""
+    from pipeline.modes.clamp import reference_space
+
+    tied = _tied(box_model(nx=3, ny=1, nz=1), root_kind, "rbe2")
+    space = reference_space(tied, "root", chord)
+    rng = np.random.default_rng(5)
+    A = sp.random(tied.n_red, tied.n_red, density=0.2, random_state=rng, format="csr")
+    A = A + sp.identity(tied.n_red)
+    expected = space.L.T.toarray() @ A.toarray() @ space.L.toarray()
+    assert space.method == {("rbe2", None): "rbe2-masters", ("rbe3", None): "rbe3-pivot",
+                            ("rbe2", "tip"): "chord"}[(root_kind, chord)]
+    np.testing.assert_allclose(space.project(A).toarray(), expected, rtol=1e-12, atol=1e-12)
