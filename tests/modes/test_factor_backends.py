@@ -56,3 +56,37 @@ def test_backend_errors(clamped, monkeypatch):
         factorize(K, backend="cholmod")
     monkeypatch.setattr(eigen, "CHOLMOD_ABOVE", 100)
     assert not isinstance(factorize(K), CholmodFactor)  # auto falls back to SuperLU
+
+
+def test_reference_blas_is_told_from_openblas():
+    """Debian's alternatives: the netlib BLAS sits in blas/, OpenBLAS's libblas.so.3 in
+    openblas-pthread/ (or openblas-openmp/); only the first is worth a warning."""
+    lib = "/usr/lib/x86_64-linux-gnu"
+    ref = f"{lib}/blas/libblas.so.3.11.0"
+    assert eigen.reference_blas([f"{lib}/libcholmod.so.3.0.14", ref]) == ref
+    assert eigen.reference_blas([f"{lib}/openblas-pthread/libblas.so.3",
+                                 f"{lib}/openblas-pthread/libopenblas.so.0"]) is None
+    assert eigen.reference_blas([f"{lib}/blas/libcblas.so.3"]) is None  # not the BLAS CHOLMOD calls
+    assert eigen.reference_blas([]) is None
+
+
+def test_reference_blas_warning_names_the_library(monkeypatch, caplog):
+    """The check reads this process's mapped libraries once and warns only for the
+    reference BLAS."""
+    import builtins
+    import io
+
+    maps = ("7f00-7f01 r-xp 00000000 08:01 1 /usr/lib/x86_64-linux-gnu/blas/libblas.so.3\n"
+            "7f02-7f03 r-xp 00000000 00:00 0 [vdso]\n")
+    real_open = builtins.open
+    monkeypatch.setattr(builtins, "open", lambda f, *a, **k: io.StringIO(maps)
+                        if f == "/proc/self/maps" else real_open(f, *a, **k))
+    monkeypatch.setattr(eigen.os.path, "realpath", lambda p: p)
+    eigen._warn_reference_blas.cache_clear()
+    try:
+        with caplog.at_level("WARNING", logger="pipeline.modes.eigen"):
+            eigen._warn_reference_blas()
+        assert "reference BLAS (/usr/lib/x86_64-linux-gnu/blas/libblas.so.3)" in caplog.text
+        assert "libopenblas0-pthread" in caplog.text
+    finally:
+        eigen._warn_reference_blas.cache_clear()
