@@ -207,8 +207,10 @@ def _stress_to_body(model: FemModel, H: np.ndarray, S: np.ndarray) -> np.ndarray
     if model.kind == "beam":
         return S.astype(np.float32)
     R = H[:3, :3]
-    B = np.einsum("ai,mnab,bj->mnij", R, voigt_to_tensor(S), R, optimize=True)
-    return tensor_to_voigt(B).astype(np.float32)
+    # R^T sigma R is linear in the Voigt vector: one 6 x 6 matrix, its columns the images
+    # of the unit Voigt vectors (not a 3 x 3 product per node and mode)
+    units = np.einsum("ai,lab,bj->lij", R, voigt_to_tensor(np.eye(6)), R)
+    return (S @ tensor_to_voigt(units)).astype(np.float32)
 
 
 def _to_body_frame(name, model, mesh, basis, moments, motions, markers, ref, info) -> ReducedLink:

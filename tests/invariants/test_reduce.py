@@ -111,3 +111,30 @@ interfaces:
 reference: A
 modes: {{count: 3}}
 """
+
+
+def test_stress_modes_turn_to_the_body_axes_as_tensors():
+    """Body axes x_b = z, y_b = x, z_b = y of the geometry: each body component is a
+    geometry one (sigma_b_xx = sigma_zz, sigma_b_yz = sigma_xy, ...); for a general turn
+    the invariants (trace, von Mises) stay and R sigma_b R^T gives the geometry tensor."""
+    import types
+
+    from scipy.spatial.transform import Rotation
+
+    from pipeline.fem.stress import VOIGT, voigt_to_tensor, von_mises
+    from pipeline.invariants.reduce import _stress_to_body
+
+    solid = types.SimpleNamespace(kind="solid")
+    S = np.random.default_rng(2).standard_normal((2, 7, 6)) * 1e6
+    H = np.eye(4)
+    H[:3, :3] = np.array([[0.0, 1, 0], [0, 0, 1], [1, 0, 0]])  # columns: body axes
+    Sb = _stress_to_body(solid, H, S)
+    geo = {"xx": "zz", "yy": "xx", "zz": "yy", "yz": "xy", "xz": "yz", "xy": "xz"}
+    for k, name in enumerate(VOIGT):
+        np.testing.assert_allclose(Sb[..., k], S[..., VOIGT.index(geo[name])], rtol=1e-6)
+    H[:3, :3] = Rotation.from_rotvec([0.4, -1.2, 0.9]).as_matrix()
+    Sb = _stress_to_body(solid, H, S)
+    R = H[:3, :3]
+    back = np.einsum("ia,mnab,jb->mnij", R, voigt_to_tensor(Sb.astype(float)), R)
+    np.testing.assert_allclose(back, voigt_to_tensor(S), rtol=0, atol=1e-6 * np.abs(S).max())
+    np.testing.assert_allclose(von_mises(Sb), von_mises(S), rtol=1e-6)
