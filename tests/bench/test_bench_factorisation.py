@@ -4,12 +4,13 @@ output/bench/factorisation.json: factor seconds, seconds per solve, factor size 
 for SuperLU (the pipeline's, always) and, where installed, CHOLMOD (scikit-sparse) and
 MKL PARDISO (pypardiso). Interleaved repeats; the machine is shared and noisy.
 
-Measured on this 2-core machine (2026-11-24): SuperLU factor 26.6-30.9 s, solve
-0.17-0.20 s, L+U 152.6 M nonzeros (~1.8 GB); CHOLMOD (scikit-sparse 0.4.16 on Debian's
-SuiteSparse 5.12, reference BLAS) factor 23.9-30.7 s, solve 0.15-0.16 s, L 63.1 M (~0.8 GB);
-PARDISO (pypardiso 0.4.7, MKL 2026.2) factor 5.9-8.2 s, solve 0.29-0.34 s. A 16-mode
-Lanczos run needs ~50 solves: SuperLU ~38 s, PARDISO ~21 s -- but MKL is 2.5 GB of
-libraries, so SuperLU stays the pipeline's solver (see docs/theory.md).
+Measured on this 2-core machine (2026-11-24): SuperLU factor 26.6-39.7 s, solve
+0.16-0.20 s, L+U 152.6 M nonzeros (~1.8 GB); CHOLMOD (scikit-sparse 0.4.16 on Debian's
+SuiteSparse 5.12) factor 9.4-10.4 s and solve 0.074-0.089 s on OpenBLAS (libopenblas0-pthread),
+23.9-30.7 s and 0.15-0.16 s on the reference BLAS Debian installs by default, L 63.1 M
+(~0.8 GB); PARDISO (pypardiso 0.4.7, MKL 2026.2) factor 5.9-8.2 s, solve 0.29-0.34 s. A
+16-mode Lanczos run needs ~50 solves. MKL is 2.5 GB of libraries, so the pipeline uses
+CHOLMOD (from 100 k DOF, when installed) and SuperLU (see docs/theory.md).
 """
 
 from __future__ import annotations
