@@ -269,8 +269,10 @@ def solid_modal_geometric_stiffness(model: FemModel, u: np.ndarray, Phi: np.ndar
         sig = 2 * mu * eps + lam * tr[..., None, None] * np.eye(3)
         w = np.abs(det) * rule.weights  # (e, q)
         S = np.einsum("eq,eqna,eqab,eqpb->enp", w, G, sig, G, optimize=True)  # (e, 10, 10)
-        Pe = P[c]  # (e, 10, 3, m)
-        out += np.einsum("enp,enkx,epky->xy", S, Pe, Pe, optimize=True)
+        Pe = P[c].reshape(len(c), 10, 3 * m)  # (e, 10, 3 m)
+        # sum_enpk S_enp Pe_enkx Pe_epky in two steps, the second one a single GEMM
+        T = np.matmul(np.swapaxes(S, 1, 2), Pe)  # (e, 10, 3 m): [e, p, (k, x)]
+        out += T.reshape(-1, m).T @ Pe.reshape(-1, m)
     return 0.5 * (out + out.T)
 
 

@@ -111,9 +111,10 @@ def _projected(model, tied, basis, loads, what: str, problem=None) -> np.ndarray
     expand = tied.transform @ space.L  # clamped coordinates -> full DOFs
     Phi = basis.shapes
     out = np.empty((len(loads), Phi.shape[1], Phi.shape[1]))
-    for c, f in enumerate(loads):
+    # all cases in one solve: a factor's pass serves every right-hand side
+    U = expand @ np.asarray(lu.solve(np.asarray(expand.T @ np.asarray(loads).T)))
+    for c, u in enumerate(U.T):
         report(f"geometric stiffness, {what} case {c + 1} of {len(loads)}")
-        u = expand @ lu.solve(expand.T @ f)
         if model.kind == "beam":
             KG = Phi.T @ (beam_geometric_stiffness(model, beam_axial_forces(model, u)) @ Phi)
         else:
