@@ -59,7 +59,6 @@ def _cholmod():
         from sksparse import cholmod
     except ImportError:
         return None
-    _warn_reference_blas()
     return cholmod
 
 
@@ -124,6 +123,7 @@ def factorize(A: sp.spmatrix, ordering: str = DEFAULT_ORDERING, symmetric: bool 
     if backend == "cholmod" and cholmod is None:
         raise ConfigError(f"{where}: backend cholmod needs scikit-sparse (and SuiteSparse)")
     if cholmod is not None and (backend == "cholmod" or A.shape[0] >= CHOLMOD_ABOVE):
+        _warn_reference_blas()
         try:
             return CholmodFactor(cholmod.cholesky(sp.csc_matrix(A)), A.shape[0])
         except cholmod.CholmodNotPositiveDefiniteError as exc:
