@@ -35,6 +35,11 @@ logger = logging.getLogger(__name__)
 ORDERINGS = ("MMD_AT_PLUS_A", "COLAMD", "MMD_ATA", "NATURAL")
 DEFAULT_ORDERING = "MMD_AT_PLUS_A"
 DENSE_BELOW = 200  # DOFs; dense eigh is as fast below this (and needs no shift)
+#: ARPACK's relative tolerance on the Ritz values of (K - sigma M)^-1 M. Machine precision
+#: (0) took 55 solves for 21 modes of the 493 k-DOF clamped bar, 1e-10 takes 44, with
+#: eigenvalues equal to 3e-15 and eigenvectors to 1e-12 (|cos| = 1): an eigenvalue's error
+#: goes as the residual squared
+LANCZOS_TOL = 1e-10
 
 
 #: DOFs from which a symmetric factorisation uses CHOLMOD when scikit-sparse is installed:
@@ -231,7 +236,8 @@ def _solve(K, M, k, sigma, ordering, lu, where):
     op = spla.LinearOperator((n, n), matvec=apply, dtype=float)
     # fixed start vector: the same input gives the same vectors (degenerate pairs too)
     v0 = np.random.default_rng(0).standard_normal(n)
-    lam, X = spla.eigsh(K, k=k, M=M, sigma=sigma, which="LM", OPinv=op, v0=v0, tol=0.0)
+    lam, X = spla.eigsh(K, k=k, M=M, sigma=sigma, which="LM", OPinv=op, v0=v0,
+                        tol=LANCZOS_TOL)
     order = np.argsort(lam)
     logger.info("%s: %d eigenpairs of %d DOFs: factor %.2f s, Lanczos %d solves %.2f s, "
                 "omega^2 in [%.4g, %.4g]", where, k, n, t1 - t0, solves,
