@@ -90,3 +90,40 @@ def test_reference_blas_warning_names_the_library(monkeypatch, caplog):
         assert "libopenblas0-pthread" in caplog.text
     finally:
         eigen._warn_reference_blas.cache_clear()
+
+
+@needs_cholmod
+@pytest.mark.gmsh
+def test_a_reduction_on_cholmod_equals_the_one_on_superlu(tmp_path, monkeypatch):
+    """A link reduced with CHOLMOD for every factor (as a large link is: the eigen solve
+    and the stiffening load cases, solved in one block) equals the same link on SuperLU:
+    frequencies, geometric stiffness, frame Hessians and stress modes."""
+    from link_samples import solid_bar_spec
+
+    from pipeline.workflow.link_build import reduce_spec
+    from pipeline.workflow.link_spec import load_link_spec
+
+    spec = tmp_path / "bar.yaml"
+    spec.write_text(solid_bar_spec("bar", 0.3, 0.01, 0.02, mesh_size=0.006, ends=("A", "tip"),
+                                   modes="{count: 4, geometric_stiffening: true}"))
+    solves, solve = {}, CholmodFactor.solve
+
+    def counted(self, rhs):
+        solves[current] = solves.get(current, []) + [np.shape(rhs)]
+        return solve(self, rhs)
+
+    monkeypatch.setattr(CholmodFactor, "solve", counted)
+    links = {}
+    for current, above in (("superlu", 10**9), ("cholmod", 0)):
+        monkeypatch.setattr(eigen, "CHOLMOD_ABOVE", above)
+        links[current] = reduce_spec(load_link_spec(spec), tmp_path, tmp_path / current)[0]
+    assert "superlu" not in solves
+    # the twelve inertia cases in one block, the two frames' six force cases in another
+    assert {shape[1] for shape in solves["cholmod"] if len(shape) == 2} >= {12, 6}
+    a, b = links["superlu"], links["cholmod"]
+    np.testing.assert_allclose(b.frequencies_hz, a.frequencies_hz, rtol=1e-9)
+    for field in ("inertia_geometric_stiffness", "force_geometric_stiffness"):
+        A, B = getattr(a, field), getattr(b, field)
+        np.testing.assert_allclose(B, A, rtol=0, atol=1e-6 * np.abs(A).max())
+    np.testing.assert_allclose(b.stress_modes, a.stress_modes, rtol=0,
+                               atol=1e-5 * np.abs(a.stress_modes).max())
