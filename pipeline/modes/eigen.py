@@ -1,7 +1,8 @@
 """Lowest eigenpairs of K x = omega^2 M x by shift-invert Lanczos.
 
 ``scipy.sparse.linalg.eigsh`` in shift-invert mode with our own operator
-(K - sigma M)^-1 from SuperLU. Fill-reducing ordering: ``MMD_AT_PLUS_A``
+(K - sigma M)^-1 from SuperLU, or from CHOLMOD (scikit-sparse, on OpenBLAS) for links of
+:data:`CHOLMOD_ABOVE` DOFs and more when it is installed. SuperLU's fill-reducing ordering: ``MMD_AT_PLUS_A``
 (minimum degree on A^T + A) with SuperLU's symmetric mode and a zero
 diagonal-pivot threshold (valid: K - sigma M is positive definite). Measured
 on the 55 464-DOF clamped P2 bar, 20 modes (``tests/modes/test_bench_eigen.py``,
