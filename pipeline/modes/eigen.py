@@ -2,9 +2,9 @@
 
 ``scipy.sparse.linalg.eigsh`` in shift-invert mode with our own operator
 (K - sigma M)^-1 from SuperLU, or from CHOLMOD (scikit-sparse, on OpenBLAS) for links of
-:data:`CHOLMOD_ABOVE` DOFs and more when it is installed. SuperLU's fill-reducing ordering: ``MMD_AT_PLUS_A``
-(minimum degree on A^T + A) with SuperLU's symmetric mode and a zero
-diagonal-pivot threshold (valid: K - sigma M is positive definite). Measured
+:data:`CHOLMOD_ABOVE` DOFs and more when it is installed. SuperLU's fill-reducing
+ordering: ``MMD_AT_PLUS_A`` (minimum degree on A^T + A) with SuperLU's symmetric mode and
+a zero diagonal-pivot threshold (valid: K - sigma M is positive definite). Measured
 on the 55 464-DOF clamped P2 bar, 20 modes (``tests/modes/test_bench_eigen.py``,
 output/bench/modes_eigen.json): factor 1.15 s + Lanczos 2.1 s = 3.3 s, fill
 16.8 M; COLAMD (scipy's default) 4.2 s, fill 18.7 M; MMD_AT_PLUS_A without
