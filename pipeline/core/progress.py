@@ -27,6 +27,8 @@ QUIET_ENV = "PIPELINE_QUIET_PROGRESS"
 
 #: (rich Status, stage name) of the innermost stage showing a spinner, if any
 _current: ContextVar[tuple[Any, str] | None] = ContextVar("pipeline_stage", default=None)
+#: name of the innermost running stage, drawn or not
+_running: ContextVar[str | None] = ContextVar("pipeline_stage_name", default=None)
 
 
 def interactive() -> bool:
@@ -60,13 +62,20 @@ def stage(name: str, times: StageTimes | None = None) -> Iterator[None]:
     times : StageTimes, optional
         Collector that receives the elapsed seconds under ``name``.
     """
+    if name == _running.get() and times is None:
+        # the same stage, opened again inside itself (a library step that times itself,
+        # called by a caller that times it too): shown and logged once, by the outer one
+        yield
+        return
     t0 = time.perf_counter()
     status = _spinner(name)
     token = _current.set((status, name)) if status is not None else None
+    running = _running.set(name)
     try:
         with status if status is not None else contextlib.nullcontext():
             yield
     finally:
+        _running.reset(running)
         if token is not None:
             _current.reset(token)
         dt = time.perf_counter() - t0
