@@ -65,6 +65,10 @@ def _print_table(s: dict) -> None:
         t.add_row(f"CAD check: {k}", f"{v:.3g}")
     for k, v in s["stage_seconds"].items():
         t.add_row(f"time: {k}", f"{v:.3f} s")
+    if s.get("factorisation"):
+        t.add_row("factorisation of the clamped stiffness", s["factorisation"])
+    if s.get("peak_memory_mib") is not None:
+        t.add_row("peak memory of the process", f"{s['peak_memory_mib'] / 1024:.2f} GiB")
     t.add_row("artifact", s["artifact"])
     if "render" in s:
         t.add_row("mode shapes", s["render"])

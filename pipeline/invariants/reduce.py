@@ -9,6 +9,7 @@ frame, where the modes are clamped.
 from __future__ import annotations
 
 import logging
+import sys
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -130,6 +131,9 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
             **stiffening, **(meta or {})}
     with stage(f"stress modes of link '{name}'", times):
         S = _stress_to_body(model, ref.pose, stress_modes(model, basis.shapes))
+    info["stage_seconds"] = times.as_dict()  # with the stress modes
+    info["factorisation"] = basis.settings.get("factorisation")
+    info["peak_memory_mib"] = peak_memory_mib()
     info["stress"] = ({"kind": "resultants", "components": list(RESULTANTS),
                        "units": "N, N m, element axes"} if model.kind == "beam" else
                       {"kind": "voigt", "components": list(VOIGT),
@@ -142,6 +146,17 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
                        inertia_geometric_stiffness=KI)
     # repeated frequencies (symmetric sections): modes along the body axes, not mixtures
     return align_repeated(link)
+
+
+def peak_memory_mib() -> float | None:
+    """This process's peak resident memory so far, MiB (what ran before in the same
+    process included); None where the platform does not tell."""
+    try:
+        import resource
+    except ImportError:  # Windows
+        return None
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return round(peak / (2**20 if sys.platform == "darwin" else 2**10), 1)  # bytes / KiB
 
 
 def _assemble(request: LinkRequest, mesh: MeshData) -> FemModel:

@@ -181,6 +181,8 @@ class ReducedLink:
             "mode_kinds": list(self.mode_kinds),
             "frames": [f.name for f in self.frames],
             "stage_seconds": dict(self.meta.get("stage_seconds", {})),
+            "factorisation": self.meta.get("factorisation"),
+            "peak_memory_mib": self.meta.get("peak_memory_mib"),
             "input_hash": self.meta.get("input_hash", ""),
         }
 

@@ -14,7 +14,7 @@ from pipeline.fem.interfaces import Interface, TiedModel
 from pipeline.modes.basis import ModalBasis, frequencies_from_eigenvalues, sign_flips
 from pipeline.modes.clamp import ClampedProblem, check_reference
 from pipeline.modes.craig_bampton import craig_bampton_basis
-from pipeline.modes.eigen import DEFAULT_ORDERING, DENSE_BELOW, lowest_modes
+from pipeline.modes.eigen import DEFAULT_ORDERING, DENSE_BELOW, CholmodFactor, lowest_modes
 
 logger = logging.getLogger(__name__)
 
@@ -89,7 +89,8 @@ def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | No
                                            ordering=ordering, where=where)
         else:
             lu = problem.factor(ordering) if space.n_c >= DENSE_BELOW else None
-            factor = "none (dense)" if lu is None else type(lu).__name__
+            factor = "none (dense)" if lu is None else \
+                "CHOLMOD" if isinstance(lu, CholmodFactor) else "SuperLU"
             lam, X = _complete_pairs(K_c, M_c, n_modes, f_max, ordering, where, lu)
             kinds = ("normal",) * lam.size
         check_connected(tied, space, where)

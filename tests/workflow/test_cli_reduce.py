@@ -18,11 +18,17 @@ def test_reduce_prints_json_summary_and_reuses(tmp_path, capsys):
     s = json.loads(capsys.readouterr().out)
     assert s["cache"] == "miss" and s["n_modes"] == 3 and s["dof"] > 0
     assert s["mass_kg"] == pytest.approx(2700 * 0.2 * 0.02 * 0.01, rel=1e-10)
-    assert set(s["stage_seconds"]) >= {"meshing link 'bar'", "eigen solve of link 'bar'"}
+    assert set(s["stage_seconds"]) >= {"meshing link 'bar'", "eigen solve of link 'bar'",
+                                       "stress modes of link 'bar'"}
+    assert s["factorisation"] == "SuperLU"  # a small link; CHOLMOD from 100 k DOF
+    assert s["peak_memory_mib"] > 50  # the process holds numpy, scipy, gmsh at least
     assert main(["reduce", str(spec), "--out", str(out), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["cache"] == "hit"
     assert main(["reduce", str(spec), "--out", str(out)]) == 0  # rich table
-    assert "reduced link 'bar'" in capsys.readouterr().out
+    table = capsys.readouterr().out
+    assert "reduced link 'bar'" in table
+    assert re.search(r"factorisation of the clamped .*SuperLU", table, re.S)
+    assert re.search(r"peak memory of the process .*\d\.\d\d GiB", table, re.S)
 
 
 @pytest.mark.parametrize(
