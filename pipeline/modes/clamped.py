@@ -144,8 +144,10 @@ def check_connected(tied: TiedModel, space, where: str) -> None:
     node outside every element) would move as a rigid body. Exact and free of scale."""
     from scipy.sparse.csgraph import connected_components
 
-    K = tied.stiffness.tocsr(copy=True)
-    K.eliminate_zeros()  # a stored zero couples nothing
+    K = tied.stiffness.tocsr()
+    if not K.data.all():  # a stored zero couples nothing (copied only then: K is large)
+        K = K.copy()
+        K.eliminate_zeros()
     # weak components of the (symmetric) pattern: the same sets as undirected ones,
     # without building K + K^T
     n, labels = connected_components(K, directed=True, connection="weak")
