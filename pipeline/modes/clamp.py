@@ -66,14 +66,14 @@ class ClampedSpace:
         fraction of the cost of two sparse products on a large link.
         """
         A = sp.csr_matrix(A)
-        K = A[self.keep][:, self.keep]
+        kept_rows = A[self.keep]  # the large selection, made once
+        K = kept_rows[:, self.keep]
         E = self.L[self.dep]  # (d, n_c)
         if E.nnz == 0:
             return K
-        A_kd = A[self.keep][:, self.dep]
-        A_dk = A[self.dep][:, self.keep]
-        A_dd = A[self.dep][:, self.dep]
-        return sp.csr_matrix(K + A_kd @ E + E.T @ A_dk + E.T @ (A_dd @ E))
+        dep_rows = A[self.dep]
+        return sp.csr_matrix(K + kept_rows[:, self.dep] @ E + E.T @ dep_rows[:, self.keep]
+                             + E.T @ (dep_rows[:, self.dep] @ E))
 
     def index_of(self, tied_dofs: np.ndarray) -> np.ndarray:
         """Positions in x_c of tied indices (which must be kept coordinates)."""
