@@ -40,8 +40,9 @@ class CompiledDae:
     fkind (F,), fint (F, 4) [coordinate or marker a, marker b, ...], fpar (F, 6)
     [k, q0 or l0, c, preload or F, Fy, Fz], fcons (F,) conservative flag.
     mlink (Mk,), mc0 (Mk, 3), mca (Mk, MM, 3), midx (Mk, MM), mnm (Mk,), mhe (Mk, MM, MM,
-    3): marker points, c0 + sum_a q_a ca_a + sum_ab q_a q_b he_ab / 2 in their link's frame
-    (he: the second-order translation of the frame they sit on, zero for a first-order one).
+    3), mhn (Mk,): marker points, c0 + sum_a q_a ca_a + sum_ab q_a q_b he_ab / 2 in their
+    link's frame (he: the second-order translation of the frame they sit on; mhn its
+    number of modes, 0 for a first-order frame, whose kernels then skip the terms).
     histories : per force element, its history object or None (the caller's factors).
     """
 
@@ -64,6 +65,7 @@ class CompiledDae:
     midx: np.ndarray
     mnm: np.ndarray
     mhe: np.ndarray
+    mhn: np.ndarray
     histories: tuple
 
 
@@ -81,7 +83,7 @@ def _marker(mech, marker, offset, MM):
             he[:idx.size, :idx.size] = f.hess
     mi = np.zeros(MM, dtype=np.int64)
     mi[:idx.size] = idx
-    return li, c0, ca, mi, idx.size, he
+    return li, c0, ca, mi, idx.size, he, idx.size if f.hess is not None else 0
 
 
 def compile_dae(system, U: np.ndarray, P: np.ndarray) -> CompiledDae | None:
@@ -131,7 +133,8 @@ def compile_dae(system, U: np.ndarray, P: np.ndarray) -> CompiledDae | None:
         np.array([m[2] for m in markers], dtype=float).reshape(nm, MM, 3),
         np.array([m[3] for m in markers], dtype=np.int64).reshape(nm, MM),
         np.array([m[4] for m in markers], dtype=np.int64).reshape(nm),
-        np.array([m[5] for m in markers], dtype=float).reshape(nm, MM, MM, 3), tuple(hist))
+        np.array([m[5] for m in markers], dtype=float).reshape(nm, MM, MM, 3),
+        np.array([m[6] for m in markers], dtype=np.int64).reshape(nm), tuple(hist))
 
 
 def force_factors(data: CompiledDae, times: np.ndarray) -> np.ndarray:

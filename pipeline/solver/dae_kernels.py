@@ -37,14 +37,14 @@ def mass_tuple(cm) -> tuple:
 
 
 @njit(cache=True)
-def _marker_point(k, q, A, dA, mlink, mc0, mca, midx, mnm, mhe, p, dp):
+def _marker_point(k, q, A, dA, mlink, mc0, mca, midx, mnm, mhe, mhn, p, dp):
     """p (3,) = a marker point in ground, dp (n, 3) its derivatives (module dae_data)."""
     li = mlink[k]
     loc = mc0[k].copy()
     for a in range(mnm[k]):
         qa = q[midx[k, a]]
         loc += qa * mca[k, a]
-        for b in range(mnm[k]):
+        for b in range(mhn[k]):
             loc += 0.5 * qa * q[midx[k, b]] * mhe[k, a, b]
     for r in range(3):
         p[r] = A[li, r, 3] + A[li, r, 0] * loc[0] + A[li, r, 1] * loc[1] + A[li, r, 2] * loc[2]
@@ -57,7 +57,7 @@ def _marker_point(k, q, A, dA, mlink, mc0, mca, midx, mnm, mhe, p, dp):
     for a in range(mnm[k]):
         i = midx[k, a]
         ca[:] = mca[k, a]
-        for b in range(mnm[k]):
+        for b in range(mhn[k]):
             ca += mhe[k, a, b] * q[midx[k, b]]
         for r in range(3):
             dp[i, r] += A[li, r, 0] * ca[0] + A[li, r, 1] * ca[1] + A[li, r, 2] * ca[2]
@@ -67,7 +67,7 @@ def _marker_point(k, q, A, dA, mlink, mc0, mca, midx, mnm, mhe, p, dp):
 def _forces(q, v, A, dA, factor, frc, Q, Qnc):
     """Add every compiled force element's generalized force to Q and its non-conservative
     part to Qnc (see :mod:`pipeline.solver.dae_data` for the kinds)."""
-    fkind, fint, fpar, fcons, mlink, mc0, mca, midx, mnm, mhe = frc
+    fkind, fint, fpar, fcons, mlink, mc0, mca, midx, mnm, mhe, mhn = frc
     n = q.shape[0]
     pa, pb = np.zeros(3), np.zeros(3)
     da, db = np.zeros((n, 3)), np.zeros((n, 3))
@@ -83,8 +83,8 @@ def _forces(q, v, A, dA, factor, frc, Q, Qnc):
             if not fcons[e]:
                 Qnc[i] += fpar[e, 3] * factor[e]
         elif kind == 2:
-            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, pa, da)
-            _marker_point(fint[e, 1], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, pb, db)
+            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, mhn, pa, da)
+            _marker_point(fint[e, 1], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, mhn, pb, db)
             d = pb - pa
             length = np.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
             u = d / length
@@ -95,7 +95,7 @@ def _forces(q, v, A, dA, factor, frc, Q, Qnc):
                 Q[i] -= tension * dl[i]
                 Qnc[i] -= fpar[e, 2] * rate * dl[i]
         else:
-            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, pa, da)
+            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, mhn, pa, da)
             for i in range(n):
                 s = factor[e] * (da[i, 0] * fpar[e, 3] + da[i, 1] * fpar[e, 4]
                                  + da[i, 2] * fpar[e, 5])
@@ -426,7 +426,7 @@ def _gravity_potential(q, A, g, mass):
 @njit(cache=True)
 def _force_potential(q, A, dA, frc):
     """Potential energy (J) of the conservative compiled force elements."""
-    fkind, fint, fpar, fcons, mlink, mc0, mca, midx, mnm, mhe = frc
+    fkind, fint, fpar, fcons, mlink, mc0, mca, midx, mnm, mhe, mhn = frc
     n = q.shape[0]
     V = 0.0
     p, pb = np.zeros(3), np.zeros(3)
@@ -439,12 +439,12 @@ def _force_potential(q, A, dA, frc):
         elif kind == 1 and fcons[e]:
             V -= fpar[e, 3] * q[fint[e, 0]]
         elif kind == 2:
-            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, p, dp)
-            _marker_point(fint[e, 1], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, pb, dp)
+            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, mhn, p, dp)
+            _marker_point(fint[e, 1], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, mhn, pb, dp)
             x = np.sqrt(np.sum((pb - p) ** 2)) - fpar[e, 1]
             V += fpar[e, 3] * x + 0.5 * fpar[e, 0] * x * x
         elif kind == 3 and fcons[e]:
-            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, p, dp)
+            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, mhn, p, dp)
             V -= fpar[e, 3] * p[0] + fpar[e, 4] * p[1] + fpar[e, 5] * p[2]
     return V
 

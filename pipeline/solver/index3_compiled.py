@@ -40,7 +40,7 @@ class CompiledStepper:
         self.args = (K.kin_tuple(data.kin), K.mass_tuple(data.masses), data.K, data.D,
                      data.gravity4, data.w,
                      (data.fkind, data.fint, data.fpar, data.fcons, data.mlink, data.mc0,
-                      data.mca, data.midx, data.mnm, data.mhe))
+                      data.mca, data.midx, data.mnm, data.mhe, data.mhn))
 
     @property
     def evaluations(self) -> int:
