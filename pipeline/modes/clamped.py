@@ -14,7 +14,13 @@ from pipeline.fem.interfaces import Interface, TiedModel
 from pipeline.modes.basis import ModalBasis, frequencies_from_eigenvalues, sign_flips
 from pipeline.modes.clamp import ClampedProblem, check_reference
 from pipeline.modes.craig_bampton import craig_bampton_basis
-from pipeline.modes.eigen import DEFAULT_ORDERING, DENSE_BELOW, CholmodFactor, lowest_modes
+from pipeline.modes.eigen import (
+    DEFAULT_ORDERING,
+    DENSE_BELOW,
+    CholmodFactor,
+    check_mode_count,
+    lowest_modes,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -125,6 +131,7 @@ def _complete_pairs(K_c, M_c, n_modes, f_max, ordering, where, lu=None):
     """The lowest modes by count and/or cut-off, one more when the count would split a
     repeated frequency (Iy = Iz: the partner of the last mode would be missing, and the
     last mode an arbitrary mix of the two planes)."""
+    check_mode_count(n_modes, where)  # 0 modes: Craig-Bampton only
     n = K_c.shape[0]
     if n_modes is None or n_modes + 1 > n:
         return lowest_modes(K_c, M_c, n_modes, f_max, ordering=ordering, lu=lu, where=where)

@@ -175,8 +175,7 @@ def lowest_modes(K: sp.spmatrix, M: sp.spmatrix, n_modes: int | None = None,
     n = K.shape[0]
     if n_modes is None and f_max is None:
         raise ConfigError(f"{where}: give n_modes or f_max")
-    if n_modes is not None and (int(n_modes) != n_modes or n_modes < 1):
-        raise ConfigError(f"{where}: n_modes: expected an integer >= 1, got {n_modes!r}")
+    check_mode_count(n_modes, where)
     if n_modes is not None and n_modes > n:
         raise ModalError(f"{where}: asked for {n_modes} modes but the clamped model has "
                          f"only {n} DOFs")
@@ -197,6 +196,12 @@ def lowest_modes(K: sp.spmatrix, M: sp.spmatrix, n_modes: int | None = None,
     if n_modes is not None:
         lam, X = lam[:n_modes], X[:, :n_modes]
     return lam, mass_normalise(X, M)
+
+
+def check_mode_count(n_modes, where: str = "model") -> None:
+    """ConfigError unless ``n_modes`` is None or an integer >= 1."""
+    if n_modes is not None and (int(n_modes) != n_modes or n_modes < 1):
+        raise ConfigError(f"{where}: n_modes: expected an integer >= 1, got {n_modes!r}")
 
 
 def mass_normalise(X: np.ndarray, M: sp.spmatrix) -> np.ndarray:

@@ -145,6 +145,12 @@ class ModesSpec(Strict):
     def _one_rule(self):
         if self.count is None and self.f_max is None:
             raise ValueError("give modes.count or modes.f_max")
+        if self.count == 0 and not self.craig_bampton:
+            raise ValueError("count 0 needs craig_bampton: true (the constraint modes alone); "
+                             "a link without modes is a rigid link in the workflow")
+        if self.chord is not None and self.craig_bampton:
+            raise ValueError("chord and craig_bampton exclude each other (the chord reference "
+                             "already holds the far interface)")
         return self
 
 
@@ -166,6 +172,16 @@ class LinkSpec(Strict):
         names = [i.name for i in info.data.get("interfaces", [])]
         if names and value not in names:
             raise ValueError(f"expected one of the interfaces {names}, got {value!r}")
+        return value
+
+    @field_validator("modes")
+    @classmethod
+    def _chord_is_far_interface(cls, value: ModesSpec, info: ValidationInfo) -> ModesSpec:
+        others = [i.name for i in info.data.get("interfaces", [])
+                  if i.name != info.data.get("reference")]
+        if value.chord is not None and value.chord not in others:
+            raise ValueError(f"chord: expected one of the interfaces other than the reference "
+                             f"{others}, got {value.chord!r}")
         return value
 
     @field_validator("sections")

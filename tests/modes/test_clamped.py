@@ -138,6 +138,10 @@ def test_too_many_modes_and_bad_requests():
         clamped_modes(tied, "root")
     with pytest.raises(ConfigError, match=r"no interface 'hub'; available: \['root'\]"):
         clamped_modes(tied, "hub", n_modes=2)
+    for n_modes in (0, -1, 2.5):  # 0 is for Craig-Bampton (constraint modes alone) only
+        with pytest.raises(ConfigError, match=f"n_modes: expected an integer >= 1, got "
+                                              f"{n_modes}"):
+            clamped_modes(tied, "root", n_modes=n_modes)
 
 
 @pytest.mark.parametrize("stored_zeros", [False, True])

@@ -49,6 +49,16 @@ def test_good_spec_loads(tmp_path):
          r"link.yaml:10: interfaces\[0\].selector: Input tag 'plain'"),
         ("modes: {count: 6}", "modes: {craig_bampton: true}",
          r"link.yaml:14: modes: .*modes.count or modes.f_max"),
+        # rules between the modes' settings and the interfaces, met before any meshing
+        ("modes: {count: 6}", "modes: {count: 0}",
+         r"link.yaml:14: modes: .*count 0 needs craig_bampton"),
+        ("modes: {count: 6}", "modes: {count: 2, chord: tip, craig_bampton: true}",
+         r"link.yaml:14: modes: .*chord and .*craig_bampton exclude each other"),
+        ("modes: {count: 6}", "modes: {count: 2, chord: hub}",
+         r"link.yaml:14: modes: chord: expected one of the interfaces other than the "
+         r"reference \['tip'\], got 'hub'"),
+        ("modes: {count: 6}", "modes: {count: 2, chord: root}",
+         r"link.yaml:14: modes: chord: .*got 'root'"),
     ],
 )
 def test_bad_specs_name_line_and_path(tmp_path, old, new, expected):
