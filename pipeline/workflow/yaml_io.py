@@ -168,14 +168,20 @@ def error_message(err: dict) -> str:
 
 def error_lines(errors, source: str | Path, data: Any, lines: dict[PathKey, int]) -> list[str]:
     """``file:line: yaml.path: message`` of each pydantic error dict."""
-    msgs = []
+    found = []
     for err in errors:
         path = _yaml_path(tuple(err["loc"]), data)
         line = lines.get(path, lines.get((), 1))
-        msg = error_message(err)
         if err["type"] == "missing":
             path = path + tuple(p for p in err["loc"][len(path):] if isinstance(p, str))[-1:]
-        msgs.append(f"{source}:{line}: {_fmt(path)}: {msg}")
+        found.append((err, path, line))
+    paths = [path for _, path, _ in found]
+    msgs = []
+    for err, path, line in found:
+        if err["type"].endswith("_type") and any(len(p) > len(path) and p[:len(path)] == path
+                                                 for p in paths):
+            continue  # a union branch the input's type never took (a mapping is no list)
+        msgs.append(f"{source}:{line}: {_fmt(path)}: {error_message(err)}")
     return msgs
 
 

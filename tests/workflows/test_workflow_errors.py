@@ -135,3 +135,34 @@ def test_exponent_floats_without_a_dot_or_sign_are_numbers(tmp_path):
     assert wf.spec.analyses[0].t_end == 0.2
     quoted = load_workflow(_write(tmp_path, GOOD.replace("stiffness: 5.0}", "stiffness: '5e1'}")))
     assert quoted.spec.forces[0].model_extra["stiffness"] == "5e1"  # quoted stays text
+
+
+def test_a_union_reports_the_branch_the_input_took(tmp_path):
+    """``modes`` is a count, a list or a rule: a wrong rule gets the rule's error, not also
+    'Input should be a valid integer / list' from the branches its mapping never was."""
+    text = GOOD.replace("forces:", "rule:\n  modes: {effective_mass: 1.5}\nforces:", 1)
+    from pydantic import BaseModel, Field
+
+    from pipeline.workflow.yaml_io import config_error, load_yaml
+
+    class Rule(BaseModel):
+        effective_mass: float = Field(le=1)
+
+    class Holder(BaseModel):
+        modes: int | list[int] | Rule
+
+    data, lines = load_yaml(_write(tmp_path, text))
+    from pydantic import ValidationError
+
+    with pytest.raises(ValidationError) as info:
+        Holder.model_validate(data["rule"])
+    msg = str(config_error(info.value, "wf.yaml", data["rule"], lines))
+    assert msg.count("\n") == 0 and "modes.effective_mass: Input should be less than or " \
+                                      "equal to 1" in msg, msg
+    with pytest.raises(ValidationError) as info:  # a key missing from the rule
+        Holder.model_validate({"modes": {}})
+    msg = str(config_error(info.value, "wf.yaml", {"modes": {}}, {}))
+    assert msg == "wf.yaml:1: modes.effective_mass: Field required", msg
+    with pytest.raises(ValidationError) as info:  # a wrong scalar: every branch's say is kept
+        Holder.model_validate({"modes": "three"})
+    assert str(config_error(info.value, "wf.yaml", {"modes": "three"}, {})).count("\n") == 2
