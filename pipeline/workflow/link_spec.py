@@ -222,11 +222,14 @@ def locate(message: str, spec: LinkSpec, path: str | Path, lines: dict,
     ("geometry",) for a meshing error)."""
     key: tuple = default
     m = re.search(r"(interface|marker) '([^']+)'", message)
+    setting = re.search(r"\bmodes\.(\w+)|\b(craig_bampton|chord)\b", message)
     if m:
         items = spec.interfaces if m.group(1) == "interface" else spec.markers
         names = [x.name for x in items]
         if m.group(2) in names:
             key = (m.group(1) + "s", names.index(m.group(2)))
+    elif setting:  # a reference condition the interfaces do not allow
+        key = ("modes", setting.group(1) or setting.group(2))
     while key and key not in lines:
         key = key[:-1]
     return f"{path}:{lines.get(key, 1)}: {_fmt(key)}: {message}"

@@ -55,8 +55,8 @@ def test_good_spec_loads(tmp_path):
         ("modes: {count: 6}", "modes: {count: 2, chord: tip, craig_bampton: true}",
          r"link.yaml:14: modes: .*chord and .*craig_bampton exclude each other"),
         ("modes: {count: 6}", "modes: {count: 2, chord: hub}",
-         r"link.yaml:14: modes: chord: expected one of the interfaces other than the "
-         r"reference \['tip'\], got 'hub'"),
+         (r"link.yaml:14: modes: chord: expected one of the interfaces other than the "
+         r"reference \['tip'\], got 'hub'")),
         ("modes: {count: 6}", "modes: {count: 2, chord: root}",
          r"link.yaml:14: modes: chord: .*got 'root'"),
     ],
