@@ -185,13 +185,29 @@ def _reference_first(interfaces, reference: str) -> tuple[Interface, ...]:
     return tuple(sorted(interfaces, key=lambda i: i.name != reference))
 
 
+#: a marker farther than this fraction of its link's size from every FE node is said to be
+#: (allowed: a lug that is not meshed; but 5 for 0.5 is a typo the fit would extrapolate)
+MARKER_FAR = 0.25
+
+
 def _marker_interface(model: FemModel, marker: MarkerRequest) -> Interface:
     """The marker as an averaging interface over nearby nodes (or one beam node)."""
+    where = f"link {model.name!r}: marker {marker.name!r}"
+    position = [float(x) for x in marker.position]
     d = np.linalg.norm(model.nodes - np.asarray(marker.position), axis=1)
+    size = float(np.ptp(model.nodes, axis=0).max())
+    if d.min() > MARKER_FAR * size:
+        logger.warning("%s at %s is %.3g m from the nearest FE node, %.0f times the link's "
+                       "size (%.3g m): its motion is the rigid fit of the nodes nearest it, "
+                       "extrapolated; check its position", where, position, d.min(),
+                       d.min() / size, size)
     if model.has_rotations:
         nodes = np.array([int(np.argmin(d))])
     elif marker.radius is not None:
         nodes = np.flatnonzero(d <= marker.radius)
+        if nodes.size == 0:
+            raise ConfigError(f"{where}: no FE node within its radius {marker.radius:g} m of "
+                              f"{position}; the nearest is {d.min():.3g} m away")
     else:
         nodes = np.argsort(d)[:12]
     return make_interface(model, marker.name, marker.position, marker.axes, "rbe3", nodes)

@@ -192,13 +192,26 @@ class LinkSpec(Strict):
             raise ValueError("a beam link needs at least one section")
         return value
 
-    @model_validator(mode="after")
-    def _unique_names(self):
-        names = [i.name for i in self.interfaces] + [m.name for m in self.markers]
-        dup = {n for n in names if names.count(n) > 1}
-        if dup:
-            raise ValueError(f"duplicate frame names {sorted(dup)} among interfaces and markers")
-        return self
+    @field_validator("interfaces")
+    @classmethod
+    def _unique_interfaces(cls, value: list) -> list:
+        _check_unique([i.name for i in value], "")
+        return value
+
+    @field_validator("markers")
+    @classmethod
+    def _unique_markers(cls, value: list, info: ValidationInfo) -> list:
+        taken = [i.name for i in info.data.get("interfaces", [])]
+        _check_unique(taken + [m.name for m in value], " among interfaces and markers",
+                      start=len(taken))
+        return value
+
+
+def _check_unique(names: list[str], among: str, start: int = 0) -> None:
+    """ValueError naming the frame names of ``names[start:]`` met twice in ``names``."""
+    dup = sorted({n for n in names[start:] if names.count(n) > 1})
+    if dup:
+        raise ValueError(f"duplicate frame name(s) {dup}{among}")
 
 
 def load_link_spec(path: str | Path) -> LinkSpec:

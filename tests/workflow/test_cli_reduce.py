@@ -38,6 +38,9 @@ def test_reduce_prints_json_summary_and_reuses(tmp_path, capsys):
         (("rho: 2700", "rho: 0"), r"material.rho: Input should be greater than 0"),
         (("nu: 0.3", "nu: -1.5"), r"material.nu: Input should be greater than -1"),
         (("modes: {count: 3}", "modes: {count: 100000}"), "modes"),
+        (("radius: 0.01}", "radius: 1.0e-9}"),
+         (r"bar.yaml:21: markers\[0\]: .*marker 'mid': no FE node within its radius 1e-09 m "
+         r"of \[0.1, 0.0, 0.0\]; the nearest is [0-9.e-]+ m away")),
         # reference conditions the interfaces' kinds do not allow: the modes' line and key
         (("    z_axis: [1, 0, 0]\nreference", ("    z_axis: [1, 0, 0]\n    kind: rbe3\n"
           "reference")), ("modes: {count: 3}", "modes: {count: 3, chord: tip}")),
@@ -65,3 +68,21 @@ def test_bad_input_one_clear_error_nothing_written(tmp_path, capsys, edit, expec
     assert err.startswith("error: ") and "Traceback" not in err
     assert re.search(expected, err, re.DOTALL), err
     assert not out.exists() or list(out.iterdir()) == []
+
+
+def test_a_marker_far_from_the_mesh_is_reduced_with_a_warning(tmp_path, caplog):
+    """A marker 4.9 m from a 0.2 m bar (a typo: 5 for 0.05) moves as the rigid fit of the
+    nodes nearest it, extrapolated: allowed (a lug that is not meshed), but said."""
+    spec = write_bar(tmp_path, modes=3)
+    spec.write_text(spec.read_text().replace("position: [0.1, 0, 0], radius: 0.01",
+                                             "position: [5, 0, 0]"))
+    with caplog.at_level("WARNING"):
+        assert main(["reduce", str(spec), "--out", str(tmp_path / "links")]) == 0
+    assert re.search(r"marker 'mid' at \[5.0, 0.0, 0.0\] is 4.8 m from the nearest FE node, "
+                     r"24 times the link's size \(0.2 m\)", caplog.text), caplog.text
+    caplog.clear()
+    spec = write_bar(tmp_path, modes=3, name="near.yaml")  # 5 mm off the surface: silent
+    spec.write_text(spec.read_text().replace("position: [0.1, 0, 0]", "position: [0.1, 0.015, 0]"))
+    with caplog.at_level("WARNING"):
+        assert main(["reduce", str(spec), "--out", str(tmp_path / "links")]) == 0
+    assert "nearest FE node" not in caplog.text

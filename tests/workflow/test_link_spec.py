@@ -57,6 +57,11 @@ def test_good_spec_loads(tmp_path):
         ("modes: {count: 6}", "modes: {count: 2, chord: hub}",
          (r"link.yaml:14: modes: chord: expected one of the interfaces other than the "
          r"reference \['tip'\], got 'hub'")),
+        ("reference: root", "reference: root\nmarkers:\n  - {name: root, position: [0.2, 0, 0]}",
+         (r"link.yaml:15: markers: duplicate frame name\(s\) \['root'\] among interfaces and "
+         r"markers")),
+        ("  - name: tip\n", "  - name: root\n",
+         r"link.yaml:9: interfaces: duplicate frame name\(s\) \['root'\]"),
         ("modes: {count: 6}", "modes: {count: 2, chord: root}",
          r"link.yaml:14: modes: chord: .*got 'root'"),
     ],
