@@ -24,7 +24,7 @@ import scipy.sparse as sp
 from pipeline.core.errors import ConfigError
 from pipeline.core.validate import check_positive, validate_array
 from pipeline.fem.model import FemModel
-from pipeline.fem.rigid_fit import node_offset_operator, rigid_fit_operator
+from pipeline.fem.rigid_fit import node_offset_operator, rigid_fit_operator, warn_if_far
 
 
 @dataclass(frozen=True)
@@ -129,6 +129,7 @@ def _attachment(model: FemModel, p: np.ndarray, radius: float | None,
                 label: str) -> sp.csr_matrix:
     """(6, n_dof) operator of the rigid motion of point p."""
     dist = np.linalg.norm(model.nodes - p, axis=1)
+    warn_if_far(model.nodes, p, label)
     if model.has_rotations:
         n = int(np.argmin(dist))
         return node_offset_operator(model.nodes[n], model.node_dofs[n], model.n_dof, p)

@@ -10,10 +10,32 @@ vector (rad), in the model's frame.
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import scipy.sparse as sp
 
 from pipeline.core.errors import ConfigError
+
+logger = logging.getLogger(__name__)
+
+#: a point farther than this fraction of its model's size from every node is said to be:
+#: allowed (a lug or a payload that is not meshed), but a typo (5 for 0.5) would otherwise
+#: be extrapolated silently
+FAR_FROM_MESH = 0.25
+
+
+def warn_if_far(nodes: np.ndarray, point, where: str) -> None:
+    """Log a warning if ``point`` (3,) m lies farther than :data:`FAR_FROM_MESH` times the
+    model's size (largest side of the nodes' (n, 3) bounding box) from every node: its
+    motion would be the nearest nodes' rigid fit carried out to it."""
+    position = [float(x) for x in point]
+    d = float(np.linalg.norm(nodes - np.asarray(position), axis=1).min())
+    size = float(np.ptp(nodes, axis=0).max())
+    if d > FAR_FROM_MESH * size:
+        logger.warning("%s at %s is %.3g m from the nearest FE node, %.0f times the link's "
+                       "size (%.3g m): its motion is the rigid fit of the nodes nearest it, "
+                       "extrapolated; check its position", where, position, d, d / size, size)
 
 
 def skew(v: np.ndarray) -> np.ndarray:
@@ -61,7 +83,11 @@ def rigid_fit_operator(
     dofs = np.asarray(dofs, int)
     k = coords.shape[0]
     w = np.ones(k) if weights is None else np.asarray(weights, float)
-    r = coords - np.asarray(point, float)
+    # fitted about the nodes' centroid, then carried to the point: the same rigid motion,
+    # but the normal matrix stays as well conditioned as the nodes' spread, however far
+    # the point (about the point itself, a lever of 60 m over centimetres lost rank)
+    centre = w @ coords / w.sum()
+    r = coords - centre
     A = np.zeros((k, 3, 6))
     A[:, :, :3] = np.eye(3)
     A[:, :, 3:] = -np.array([skew(ri) for ri in r])
@@ -71,6 +97,7 @@ def rigid_fit_operator(
             "rigid fit needs at least 3 non-collinear nodes; got a degenerate node set"
         )
     B = np.linalg.solve(N, (w[:, None, None] * A).transpose(2, 0, 1).reshape(6, 3 * k))
+    B[:3] -= skew(np.asarray(point, float) - centre) @ B[3:]  # t_p = t_c + theta x (p - c)
     rows = np.repeat(np.arange(6), 3 * k)
     cols = np.tile(dofs.reshape(-1), 6)
     return sp.csr_matrix((B.ravel(), (rows, cols)), shape=(6, n_dof))

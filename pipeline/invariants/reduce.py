@@ -20,6 +20,7 @@ from pipeline.core.progress import StageTimes, stage
 from pipeline.fem.interfaces import Interface, InterfaceSpec, make_interface, resolve_interfaces
 from pipeline.fem.model import FemModel
 from pipeline.fem.moments import MassMoments, mass_moments
+from pipeline.fem.rigid_fit import warn_if_far
 from pipeline.fem.stress import RESULTANTS, VOIGT, stress_modes, tensor_to_voigt, voigt_to_tensor
 from pipeline.invariants.body_frame import congruent, inverse_pose, points_to_body, vectors_to_body
 from pipeline.invariants.participation import align_repeated
@@ -185,22 +186,12 @@ def _reference_first(interfaces, reference: str) -> tuple[Interface, ...]:
     return tuple(sorted(interfaces, key=lambda i: i.name != reference))
 
 
-#: a marker farther than this fraction of its link's size from every FE node is said to be
-#: (allowed: a lug that is not meshed; but 5 for 0.5 is a typo the fit would extrapolate)
-MARKER_FAR = 0.25
-
-
 def _marker_interface(model: FemModel, marker: MarkerRequest) -> Interface:
     """The marker as an averaging interface over nearby nodes (or one beam node)."""
     where = f"link {model.name!r}: marker {marker.name!r}"
     position = [float(x) for x in marker.position]
     d = np.linalg.norm(model.nodes - np.asarray(marker.position), axis=1)
-    size = float(np.ptp(model.nodes, axis=0).max())
-    if d.min() > MARKER_FAR * size:
-        logger.warning("%s at %s is %.3g m from the nearest FE node, %.0f times the link's "
-                       "size (%.3g m): its motion is the rigid fit of the nodes nearest it, "
-                       "extrapolated; check its position", where, position, d.min(),
-                       d.min() / size, size)
+    warn_if_far(model.nodes, position, where)
     if model.has_rotations:
         nodes = np.array([int(np.argmin(d))])
     elif marker.radius is not None:

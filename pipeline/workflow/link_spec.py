@@ -234,13 +234,14 @@ def locate(message: str, spec: LinkSpec, path: str | Path, lines: dict,
     ``spec``: the interface or marker the message names, else ``default`` (e.g.
     ("geometry",) for a meshing error)."""
     key: tuple = default
-    m = re.search(r"(interface|marker) '([^']+)'", message)
+    m = re.search(r"(interface|marker|point mass) '([^']+)'", message)
     setting = re.search(r"\bmodes\.(\w+)|\b(craig_bampton|chord)\b", message)
     if m:
-        items = spec.interfaces if m.group(1) == "interface" else spec.markers
-        names = [x.name for x in items]
+        field = {"interface": "interfaces", "marker": "markers",
+                 "point mass": "point_masses"}[m.group(1)]
+        names = [x.name for x in getattr(spec, field)]
         if m.group(2) in names:
-            key = (m.group(1) + "s", names.index(m.group(2)))
+            key = (field, names.index(m.group(2)))
     elif setting:  # a reference condition the interfaces do not allow
         key = ("modes", setting.group(1) or setting.group(2))
     while key and key not in lines:

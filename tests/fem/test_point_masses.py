@@ -3,6 +3,8 @@ closed-form rigid body (box + point body), modal-mass identity, free-free modes.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -126,18 +128,62 @@ def _point_C(model):
 
 
 @pytest.mark.parametrize("kwargs, field", [
-    (dict(mass=0.0), "mass: expected a finite value > 0"),
-    (dict(mass=-2.0), "mass: expected a finite value > 0"),
-    (dict(inertia=np.array([[1.0, 0.1, 0], [0, 1, 0], [0, 0, 1]])), "inertia: expected a symmetric"),
-    (dict(inertia=np.diag([1.0, 1.0, -0.1])), "inertia: expected a positive semi-definite"),
-    (dict(inertia=np.diag([1.0, 1.0, 3.0])), "inertia: .* I1 \\+ I2 >= I3"),
-    (dict(inertia=np.eye(2)), "inertia: expected shape"),
-    (dict(position=[0.0, np.nan, 0.0]), "position: expected finite"),
-    (dict(attach_radius=1e-4), "attach_radius: expected a radius enclosing at least 4"),
-    (dict(attach_radius=-1.0), "attach_radius: expected a finite value > 0"),
+    ({"mass": 0.0}, "mass: expected a finite value > 0"),
+    ({"mass": -2.0}, "mass: expected a finite value > 0"),
+    ({"inertia": np.array([[1.0, 0.1, 0], [0, 1, 0], [0, 0, 1]])}, "inertia: expected a symmetric"),
+    ({"inertia": np.diag([1.0, 1.0, -0.1])}, "inertia: expected a positive semi-definite"),
+    ({"inertia": np.diag([1.0, 1.0, 3.0])}, "inertia: .* I1 \\+ I2 >= I3"),
+    ({"inertia": np.eye(2)}, "inertia: expected shape"),
+    ({"position": [0.0, np.nan, 0.0]}, "position: expected finite"),
+    ({"attach_radius": 1e-4}, "attach_radius: expected a radius enclosing at least 4"),
+    ({"attach_radius": -1.0}, "attach_radius: expected a finite value > 0"),
 ])
 def test_point_mass_errors_name_link_body_and_field(box, kwargs, field):
-    spec = dict(name="payload", position=np.array([0.21, 0.05, 0.03]), mass=1.0, inertia=None)
+    spec = {"name": "payload", "position": np.array([0.21, 0.05, 0.03]), "mass": 1.0, "inertia": None}
     spec.update(kwargs)
     with pytest.raises(ConfigError, match=f"^link 'box': point mass 'payload': {field}"):
         add_point_masses(box, [PointMass(**spec)], "link 'box'")
+
+
+def test_a_far_point_body_is_fitted_about_the_nodes_and_said(box, caplog):
+    """A payload 60 m from a 0.4 m box (a typo, or a very long rigid arm) moves as the box's
+    rigid fit carried out to it: its mass moments are the closed-form rigid body's. The fit
+    about the far point itself lost rank at round-off (lever 60 m over node spacings of
+    centimetres) and was refused as 'a degenerate node set'; the distance is now said."""
+    far = np.array([60.0, 0.02, 0.08])
+    with caplog.at_level("WARNING"):
+        out = add_point_masses(box, [PointMass("payload", far, PAYLOAD_M)], "link 'box'")
+    assert re.search(r"link 'box': point mass 'payload' at \[60.0, 0.02, 0.08\] is 59.6 m from "
+                     r"the nearest FE node, 149 times the link's size \(0.4 m\)", caplog.text)
+    C = mass_moments(out, np.zeros((out.n_dof, 0))).C
+    m = RHO * DIMS.prod()
+    c = DIMS / 2
+    ref = np.zeros((4, 4))
+    ref[:3, :3] = np.diag(m * DIMS**2 / 12) + m * np.outer(c, c)
+    ref[:3, 3] = ref[3, :3] = m * c
+    ref[3, 3] = m
+    ref += PAYLOAD_M * np.outer(np.append(far, 1.0), np.append(far, 1.0))
+    np.testing.assert_allclose(C, ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
+    caplog.clear()
+    with caplog.at_level("WARNING"):  # the shipped payload, 5 cm off the box: silent
+        add_point_masses(box, [PointMass("payload", PAYLOAD_P, PAYLOAD_M)], "link 'box'")
+    assert "nearest FE node" not in caplog.text
+
+
+@pytest.mark.parametrize("distance", [0.0, 1.0, 1e3, 1e4])
+def test_rigid_fit_reads_a_rigid_motion_at_any_point(distance):
+    """G u of a rigid motion u = t + theta x (x - p) of four nodes 1 cm apart is [t, theta]
+    to round-off, for a point p on them or 10 km away; three collinear nodes are
+    refused wherever p is."""
+    from pipeline.fem.rigid_fit import rigid_fit_operator
+
+    rng = np.random.default_rng(3)
+    x = np.array([[0.0, 0, 0], [0.01, 0, 0], [0, 0.01, 0], [0, 0, 0.01]]) + 5.0
+    p = x[0] + distance * np.array([0.6, -0.8, 0.0])
+    t, theta = rng.standard_normal(3), 1e-3 * rng.standard_normal(3)
+    u = (t + np.cross(theta, x - p)).ravel()
+    G = rigid_fit_operator(x, np.arange(12).reshape(4, 3), 12, p)
+    np.testing.assert_allclose(G @ u, np.concatenate([t, theta]), rtol=0,
+                               atol=1e-12 * max(1.0, distance))
+    with pytest.raises(ConfigError, match="at least 3 non-collinear nodes"):
+        rigid_fit_operator(x[:3] * [1, 0, 0], np.arange(9).reshape(3, 3), 9, p)

@@ -38,6 +38,10 @@ def test_reduce_prints_json_summary_and_reuses(tmp_path, capsys):
         (("rho: 2700", "rho: 0"), r"material.rho: Input should be greater than 0"),
         (("nu: 0.3", "nu: -1.5"), r"material.nu: Input should be greater than -1"),
         (("modes: {count: 3}", "modes: {count: 100000}"), "modes"),
+        (("modes: {count: 3}", ("point_masses:\n  - {name: pm, position: [0.2, 0, 0], mass: 1.0, "
+          "inertia: [[1, 2, 0], [0, 1, 0], [0, 0, 1]]}\nmodes: {count: 3}")),
+         (r"bar.yaml:23: point_masses\[0\]: link 'bar': point mass 'pm': inertia: expected a "
+         r"symmetric")),
         (("radius: 0.01}", "radius: 1.0e-9}"),
          (r"bar.yaml:21: markers\[0\]: .*marker 'mid': no FE node within its radius 1e-09 m "
          r"of \[0.1, 0.0, 0.0\]; the nearest is [0-9.e-]+ m away")),
