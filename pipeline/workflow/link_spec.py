@@ -231,19 +231,25 @@ def load_link_spec_lines(path: str | Path) -> tuple[LinkSpec, dict]:
 def locate(message: str, spec: LinkSpec, path: str | Path, lines: dict,
            default: tuple = ()) -> str:
     """``file:line: yaml.path: message`` for an error met while meshing or reducing
-    ``spec``: the interface or marker the message names, else ``default`` (e.g.
+    ``spec``: the interface, marker or point mass the message names, else the spec path it
+    writes (``sections[0].members``, ``modes.chord``), else ``default`` (e.g.
     ("geometry",) for a meshing error)."""
     key: tuple = default
-    m = re.search(r"(interface|marker|point mass) '([^']+)'", message)
-    setting = re.search(r"\bmodes\.(\w+)|\b(craig_bampton|chord)\b", message)
-    if m:
+    item = re.search(r"(interface|marker|point mass) '([^']+)'", message)
+    written = re.search(r"\b(geometry|material|sections|interfaces|markers|point_masses|modes)"
+                        r"((?:\[\d+\]|\.\w+)+|(?=:))", message)  # a path, or a key and ':'
+    setting = re.search(r"\b(craig_bampton|chord)\b", message)
+    if item:
         field = {"interface": "interfaces", "marker": "markers",
-                 "point mass": "point_masses"}[m.group(1)]
+                 "point mass": "point_masses"}[item.group(1)]
         names = [x.name for x in getattr(spec, field)]
-        if m.group(2) in names:
-            key = (field, names.index(m.group(2)))
+        if item.group(2) in names:
+            key = (field, names.index(item.group(2)))
+    elif written:
+        parts = re.findall(r"\[(\d+)\]|\.(\w+)", written.group(2))
+        key = (written.group(1), *(int(i) if i else name for i, name in parts))
     elif setting:  # a reference condition the interfaces do not allow
-        key = ("modes", setting.group(1) or setting.group(2))
+        key = ("modes", setting.group(1))
     while key and key not in lines:
         key = key[:-1]
     return f"{path}:{lines.get(key, 1)}: {_fmt(key)}: {message}"

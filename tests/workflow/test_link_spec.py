@@ -79,3 +79,27 @@ def test_duplicate_key_and_syntax_error(tmp_path):
         load_link_spec(_write(tmp_path, GOOD + "  bad: [1, 2\n"))
     with pytest.raises(ConfigError, match="file not found"):
         load_link_spec(tmp_path / "nope.yaml")
+
+
+@pytest.mark.parametrize("message, where", [
+    ("link 'bar': sections[0].members: member 1 out of range 0..0", "sections[0].members"),
+    ("link 'bar': geometry.points: member 0 has zero length", "geometry"),
+    ("link 'bar': modes.chord: expected two RBE2 interfaces", "modes"),
+    ("link 'bar': craig_bampton needs at least one RBE2 interface besides 'root'", "modes"),
+    ("link 'bar': interface 'tip': selector matched no node", "interfaces[1]"),
+    ("link 'bar': 2 modes carry no mass", "<root>"),  # a word is not a path
+])
+def test_errors_met_while_reducing_name_the_spec_line(tmp_path, message, where):
+    """What the reduction says is placed at the line of the key it names (the spec
+    validated, the error met in meshing or reduction)."""
+    from pipeline.workflow.link_spec import load_link_spec_lines, locate
+
+    text = GOOD.replace("modes: {count: 6}", "sections:\n  - {A: 1.0e-4, Iy: 1.0e-9, Iz: 1.0e-9, "
+                        "J: 2.0e-9, members: [0]}\nmodes: {count: 6}")
+    path = _write(tmp_path, text)
+    spec, lines = load_link_spec_lines(path)
+    out = locate(message, spec, path, lines)
+    assert out.startswith(f"{path}:") and f": {where}: {message}" in out, out
+    key_line = {"sections[0].members": 15, "geometry": 3, "modes": 16, "interfaces[1]": 11,
+                "<root>": 1}[where]
+    assert out.split(":")[1] == str(key_line), out
