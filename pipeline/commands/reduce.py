@@ -61,6 +61,11 @@ def _print_table(s: dict) -> None:
     t.add_row("inertia about CoM", "\n".join(_vec(r) for r in s["inertia_kgm2"]) + " kg m^2")
     t.add_row("frequencies", ", ".join(f"{f:.4g}" for f in s["frequencies_hz"]) + " Hz")
     t.add_row("frames", ", ".join(s["frames"]))
+    if s.get("reference_conditions"):
+        t.add_row("modes relative to", s["reference_conditions"])
+    gs = s.get("geometric_stiffening")
+    t.add_row("geometric stiffening", f"{gs['inertia_cases']} inertia cases; forces at "
+              f"{', '.join(gs['frame_forces'])}" if gs else "off")
     for k, v in s["mesh_quality"].items():
         t.add_row(f"CAD check: {k}", f"{v:.3g}")
     for k, v in s["stage_seconds"].items():

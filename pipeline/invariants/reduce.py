@@ -128,7 +128,8 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
             "frame_forces": [m[0].name for m in motions]}}
     info = {"n_dof": model.n_dof, "n_nodes": model.n_nodes, "units": "SI (m, kg, s, N, rad)",
             "stage_seconds": times.as_dict(), "mesh": _mesh_quality(mesh, moments, request),
-            "reference_conditions": {"reference": request.reference, "chord": request.chord},
+            "reference_conditions": {"reference": request.reference, "chord": request.chord,
+                                     "craig_bampton": basis.settings.get("cb_interfaces", [])},
             **stiffening, **(meta or {})}
     with stage(f"stress modes of link '{name}'", times):
         S = _stress_to_body(model, ref.pose, stress_modes(model, basis.shapes))

@@ -183,8 +183,28 @@ class ReducedLink:
             "stage_seconds": dict(self.meta.get("stage_seconds", {})),
             "factorisation": self.meta.get("factorisation"),
             "peak_memory_mib": self.meta.get("peak_memory_mib"),
+            "reference_conditions": self._reference_conditions(),
+            "geometric_stiffening": ({"inertia_cases": len(gs.get("inertia_cases", ())),
+                                      "frame_forces": list(gs.get("frame_forces", ()))}
+                                     if (gs := self.meta.get("geometric_stiffening")) else None),
             "input_hash": self.meta.get("input_hash", ""),
         }
+
+    def _reference_conditions(self) -> str | None:
+        """What the modes are relative to, in words (None for an artifact that does not
+        record it)."""
+        rc = self.meta.get("reference_conditions") or {}
+        ref = rc.get("reference")
+        if ref is None:
+            return None
+        if rc.get("chord"):
+            return f"chord from {ref!r} to {rc['chord']!r} (pinned-pinned)"
+        n_constraint = sum(k == "constraint" for k in self.mode_kinds)
+        if n_constraint:
+            names = rc.get("craig_bampton") or ["the other interfaces"]  # older artifacts
+            return (f"clamped at {ref!r}, with {n_constraint} constraint modes (Craig-Bampton: "
+                    f"{', '.join(names)})")
+        return f"clamped at {ref!r}"
 
 
 def _second_derivatives(K, modes, axes) -> np.ndarray | None:

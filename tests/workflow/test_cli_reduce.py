@@ -4,7 +4,7 @@ import json
 import re
 
 import pytest
-from link_samples import write_bar
+from link_samples import beam_spec, write_bar
 
 from pipeline.cli import main
 
@@ -22,6 +22,7 @@ def test_reduce_prints_json_summary_and_reuses(tmp_path, capsys):
                                        "stress modes of link 'bar'"}
     assert s["factorisation"] == "SuperLU"  # a small link; CHOLMOD from 100 k DOF
     assert s["peak_memory_mib"] > 50  # the process holds numpy, scipy, gmsh at least
+    assert s["reference_conditions"] == "clamped at 'root'" and s["geometric_stiffening"] is None
     assert main(["reduce", str(spec), "--out", str(out), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["cache"] == "hit"
     assert main(["reduce", str(spec), "--out", str(out)]) == 0  # rich table
@@ -90,3 +91,32 @@ def test_a_marker_far_from_the_mesh_is_reduced_with_a_warning(tmp_path, caplog):
     with caplog.at_level("WARNING"):
         assert main(["reduce", str(spec), "--out", str(tmp_path / "links")]) == 0
     assert "nearest FE node" not in caplog.text
+
+
+@pytest.mark.parametrize("modes, conditions, stiffening", [
+    ("{count: 2, chord: tip, geometric_stiffening: true}", ("chord from 'root' to 'tip' "
+     "(pinned-pinned)"), "12 inertia cases; forces at root, tip, mid"),
+    ("{count: 2, craig_bampton: true}", ("clamped at 'root', with 6 constraint modes "
+     "(Craig-Bampton: tip)"), "off"),
+])
+def test_reduce_says_which_modes_and_which_stiffening(tmp_path, capsys, modes, conditions,
+                                                      stiffening):
+    """The table and the JSON say what the modes are relative to and whether the link
+    carries geometric stiffening (a user choosing between runs reads it there)."""
+    spec = tmp_path / "rod.yaml"
+    spec.write_text(beam_spec("rod", 0.3, A=7.85e-5, Iy=4.9e-10, Iz=4.9e-10, J=9.8e-10,
+                              element_size=0.03, interfaces=("root", "tip"),
+                              markers={"mid": 0.15}, modes=modes))
+    out = tmp_path / "links"
+    assert main(["reduce", str(spec), "--out", str(out), "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["reference_conditions"] == conditions
+    if stiffening == "off":
+        assert s["geometric_stiffening"] is None
+    else:
+        assert s["geometric_stiffening"] == {"inertia_cases": 12,
+                                             "frame_forces": ["root", "tip", "mid"]}
+    assert main(["reduce", str(spec), "--out", str(out)]) == 0
+    table = " ".join(re.sub("[│┃]", " ", capsys.readouterr().out).split())  # rich wraps cells
+    assert re.search(r"modes relative to .*" + re.escape(conditions.split(" (")[0]), table)
+    assert re.search(r"geometric stiffening .*" + re.escape(stiffening.split(";")[0]), table)
