@@ -162,10 +162,18 @@ def check_references(wf: Workflow) -> None:
                                    f"{labels}, got {bad}")
     for kind in ("renders", "animations"):
         for i, o in enumerate(getattr(spec.outputs, kind)):
-            bad = [n for n in o.links or () if n not in spec.links]
+            if o.links is None:
+                continue
+            bad = [n for n in o.links if n not in spec.links]
             if bad:
                 raise wf.error("outputs", kind, i, "links",
                                msg=f"expected links among {sorted(spec.links)}, got {bad}")
+            # a ground without a shape draws nothing (its frames are joints of other links)
+            if all(spec.links[n].type == "ground" and spec.links[n].shape is None
+                   for n in o.links):
+                raise wf.error("outputs", kind, i, "links",
+                               msg=f"expected at least one link that is drawn (a ground "
+                                   f"without a shape is not), got {o.links}")
     for a in spec.analyses:  # each case's overrides give a valid workflow (the schema)
         for c in a.cases:
             wf.for_case(c.set, c.label)

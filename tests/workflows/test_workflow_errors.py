@@ -68,6 +68,13 @@ def _line_of(text: str, needle: str) -> int:
      "does not exist"),
     ("stiffness: 5.0}", "stiffnes: 5.0}", "stiffnes", "forces[0]", "unknown field"),
     ("    type: dynamic", "    type: dynamc", "type: dynamc", "analyses[0]", "dynamic"),
+    # a render of links that draw nothing (a ground without a shape) crashed after the run
+    ("outputs:\n  plots:", ("outputs:\n  renders:\n    - {name: still, analysis: swing, "
+     "links: [ground]}\n  plots:"), "links: [ground]", "outputs.renders[0].links",
+     "expected at least one link that is drawn"),
+    ("outputs:\n  plots:", ("outputs:\n  animations:\n    - {name: swing, analysis: swing, "
+     "links: []}\n  plots:"), "links: []", "outputs.animations[0].links",
+     "expected at least one link that is drawn"),
 ])
 def test_errors_name_file_line_and_path(tmp_path, old, new, needle, path_text, expect):
     text = GOOD.replace(old, new)
