@@ -254,6 +254,12 @@ def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
     shapes = machine_shapes(m, rs_spec.links)
     if rs_spec.at:
         ks = [int(np.argmin(np.abs(r.t - t))) for t in rs_spec.at]
+        slack = 1e-9 * max(abs(r.t[-1] - r.t[0]), 1.0)
+        outside = [t for t in rs_spec.at if not r.t[0] - slack <= t <= r.t[-1] + slack]
+        if outside:  # a --quick run, a run that stopped early, or a typo
+            logger.warning("%s: render %r: at %s s is outside the outputs of %r (%.4g to "
+                           "%.4g s); the nearest are drawn, labelled with their own times",
+                           wf.name, rs_spec.name, outside, r.label, r.t[0], r.t[-1])
     else:
         ks = [len(r.t) - 1]
     Q = [r.q[k] for k in ks]

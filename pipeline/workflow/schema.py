@@ -11,7 +11,7 @@ from __future__ import annotations
 from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import Field, field_validator, model_validator
+from pydantic import AfterValidator, Field, field_validator, model_validator
 
 from pipeline.post.units import ANGLE, FORCE, LENGTH, STRESS
 from pipeline.workflow.link_spec import LinkSpec, Mat3, Strict, Vec3
@@ -372,11 +372,23 @@ class PlotSpec(Strict):
     units: UnitsSpec | None = Field(None, description="this plot's units (default outputs.units)")
 
 
+def _view_direction(value):
+    """A named view, or a direction [x, y, z] that has one."""
+    if not isinstance(value, str) and not np.linalg.norm(value) > 0:
+        raise ValueError(f"expected a named view or a direction [x, y, z] of non-zero length, "
+                         f"got {value}")
+    return value
+
+
+Scale = Annotated[float, Field(gt=0)] | Literal["auto"]
+Camera = Annotated[Literal["xy", "xz", "yz", "iso"] | Vec3, AfterValidator(_view_direction)]
+
+
 class RenderSpec(Strict):
     name: Name
     analysis: str
-    scale: float | Literal["auto"] = Field("auto", description="elastic magnification")
-    camera: Literal["xy", "xz", "yz", "iso"] | Vec3 = Field(
+    scale: Scale = Field("auto", description="elastic magnification")
+    camera: Camera = Field(
         "iso", description="named view or a view direction [x, y, z] (scene -> camera)")
     at: list[float] | None = Field(None, description="output times (s) to show; default: "
                                                      "the last (timed) or every case (static)")
@@ -392,8 +404,8 @@ class RenderSpec(Strict):
 class AnimationSpec(Strict):
     name: Name
     analysis: str
-    scale: float | Literal["auto"] = "auto"
-    camera: Literal["xy", "xz", "yz", "iso"] | Vec3 = "iso"
+    scale: Scale = "auto"
+    camera: Camera = "iso"
     format: Literal["gif", "mp4"] = "gif"
     case: str | None = None
     fps: int = Field(15, ge=1, le=60)

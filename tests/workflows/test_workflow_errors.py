@@ -72,6 +72,11 @@ def _line_of(text: str, needle: str) -> int:
     ("outputs:\n  plots:", ("outputs:\n  renders:\n    - {name: still, analysis: swing, "
      "links: [ground]}\n  plots:"), "links: [ground]", "outputs.renders[0].links",
      "expected at least one link that is drawn"),
+    ("outputs:\n  plots:", ("outputs:\n  renders:\n    - {name: still, analysis: swing, "
+     "scale: -5}\n  plots:"), "scale: -5", "outputs.renders[0].scale", "greater than 0"),
+    ("outputs:\n  plots:", ("outputs:\n  renders:\n    - {name: still, analysis: swing, "
+     "camera: [0, 0, 0]}\n  plots:"), "camera: [0, 0, 0]", "outputs.renders[0].camera",
+     "a direction [x, y, z] of non-zero length"),
     ("outputs:\n  plots:", ("outputs:\n  animations:\n    - {name: swing, analysis: swing, "
      "links: []}\n  plots:"), "links: []", "outputs.animations[0].links",
      "expected at least one link that is drawn"),
@@ -173,3 +178,16 @@ def test_a_union_reports_the_branch_the_input_took(tmp_path):
     with pytest.raises(ValidationError) as info:  # a wrong scalar: every branch's say is kept
         Holder.model_validate({"modes": "three"})
     assert str(config_error(info.value, "wf.yaml", {"modes": "three"}, {})).count("\n") == 2
+
+
+def test_render_times_outside_the_run_are_drawn_at_the_nearest_and_said(tmp_path, caplog):
+    """A still asked at times the run does not reach (a --quick run, a run stopped early, a
+    typo) shows the nearest outputs, labelled with their own times, and says so."""
+    text = GOOD.replace("outputs:\n  plots:", "outputs:\n  renders:\n    - {name: still, "
+                        "analysis: swing, at: [0.05, 5.0, -1.0]}\n  plots:")
+    with caplog.at_level("WARNING"):
+        run_workflow(_write(tmp_path, text), out_root=tmp_path / "out",
+                     cache_dir=tmp_path / "cache")
+    assert (tmp_path / "out" / "tiny" / "still.png").exists()
+    assert re.search(r"render 'still': at \[5.0, -1.0\] s is outside the outputs of 'swing' "
+                     r"\(0 to 0.5 s\)", caplog.text), caplog.text
