@@ -32,7 +32,7 @@ def warn_if_far(nodes: np.ndarray, point, where: str) -> None:
     position = [float(x) for x in point]
     d = float(np.linalg.norm(nodes - np.asarray(position), axis=1).min())
     size = float(np.ptp(nodes, axis=0).max())
-    if d > FAR_FROM_MESH * size:
+    if size > 0 and d > FAR_FROM_MESH * size:  # (a single node has no size to compare)
         logger.warning("%s at %s is %.3g m from the nearest FE node, %.0f times the link's "
                        "size (%.3g m): its motion is the rigid fit of the nodes nearest it, "
                        "extrapolated; check its position", where, position, d, d / size, size)
