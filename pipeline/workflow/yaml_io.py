@@ -181,6 +181,9 @@ def error_lines(errors, source: str | Path, data: Any, lines: dict[PathKey, int]
         if err["type"].endswith("_type") and any(len(p) > len(path) and p[:len(path)] == path
                                                  for p in paths):
             continue  # a union branch the input's type never took (a mapping is no list)
+        if err["type"] == "literal_error" and not isinstance(err.get("input"), str) and any(
+                p == path and e is not err for e, p, _ in found):
+            continue  # the words a number could have been instead ("auto"): beside the point
         msgs.append(f"{source}:{line}: {_fmt(path)}: {error_message(err)}")
     return msgs
 

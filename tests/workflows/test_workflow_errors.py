@@ -191,3 +191,25 @@ def test_render_times_outside_the_run_are_drawn_at_the_nearest_and_said(tmp_path
     assert (tmp_path / "out" / "tiny" / "still.png").exists()
     assert re.search(r"render 'still': at \[5.0, -1.0\] s is outside the outputs of 'swing' "
                      r"\(0 to 0.5 s\)", caplog.text), caplog.text
+
+
+def test_a_number_out_of_range_is_not_told_the_words_it_could_be():
+    """``scale: -1`` (a number or "auto"): 'greater than 0', not also "should be 'auto'"; a
+    word that is neither keeps both."""
+    from typing import Annotated, Literal
+
+    from pydantic import BaseModel, Field, ValidationError
+
+    from pipeline.workflow.yaml_io import config_error
+
+    class Render(BaseModel):
+        scale: Annotated[float, Field(gt=0)] | Literal["auto"]
+
+    for value, expected in ((-1.0, ["Input should be greater than 0"]),
+                            ("big", ["Input should be a valid number", "Input should be 'auto'"])):
+        with pytest.raises(ValidationError) as info:
+            Render.model_validate({"scale": value})
+        msg = str(config_error(info.value, "wf.yaml", {"scale": value}, {}))
+        said = [line.split(": ", 2)[2] for line in msg.splitlines()]
+        assert len(said) == len(expected) and all(
+            a.startswith(b) for a, b in zip(said, expected, strict=True)), msg
