@@ -32,7 +32,7 @@ from pipeline.core.errors import ConfigError, PipelineError
 #: keys whose numbers must be > 0 wherever they appear in a workflow or link spec
 POSITIVE = {"mass", "t_end", "outputs", "radius", "E", "rho", "mesh_size", "element_size",
             "rtol", "atol", "step", "max_step", "max_steps", "count", "A", "Iy", "Iz", "J",
-            "fps", "max_frames"}
+            "fps", "max_frames", "scale"}
 #: subtrees whose keys and values are checked when the machine is built, not at load
 FREE_FORM = {"drivers", "quick", "set", "spec_overrides", "params", "description", "title",
              "ylabel"}
