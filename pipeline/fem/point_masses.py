@@ -129,7 +129,7 @@ def _attachment(model: FemModel, p: np.ndarray, radius: float | None,
                 label: str) -> sp.csr_matrix:
     """(6, n_dof) operator of the rigid motion of point p."""
     dist = np.linalg.norm(model.nodes - p, axis=1)
-    warn_if_far(model.nodes, p, label)
+    warn_if_far(model.nodes, dist, p, label)
     if model.has_rotations:
         n = int(np.argmin(dist))
         return node_offset_operator(model.nodes[n], model.node_dofs[n], model.n_dof, p)

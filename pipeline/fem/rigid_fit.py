@@ -25,12 +25,13 @@ logger = logging.getLogger(__name__)
 FAR_FROM_MESH = 0.25
 
 
-def warn_if_far(nodes: np.ndarray, point, where: str) -> None:
-    """Log a warning if ``point`` (3,) m lies farther than :data:`FAR_FROM_MESH` times the
-    model's size (largest side of the nodes' (n, 3) bounding box) from every node: its
-    motion would be the nearest nodes' rigid fit carried out to it."""
+def warn_if_far(nodes: np.ndarray, dist: np.ndarray, point, where: str) -> None:
+    """Log a warning if ``point`` (3,) m, at distances ``dist`` (n,) m from the ``nodes``
+    (n, 3), lies farther than :data:`FAR_FROM_MESH` times the model's size (largest side of
+    the nodes' bounding box) from every node: its motion would be the nearest nodes' rigid
+    fit carried out to it."""
     position = [float(x) for x in point]
-    d = float(np.linalg.norm(nodes - np.asarray(position), axis=1).min())
+    d = float(dist.min())
     size = float(np.ptp(nodes, axis=0).max())
     if size > 0 and d > FAR_FROM_MESH * size:  # (a single node has no size to compare)
         logger.warning("%s at %s is %.3g m from the nearest FE node, %.0f times the link's "

@@ -192,7 +192,7 @@ def _marker_interface(model: FemModel, marker: MarkerRequest) -> Interface:
     where = f"link {model.name!r}: marker {marker.name!r}"
     position = [float(x) for x in marker.position]
     d = np.linalg.norm(model.nodes - np.asarray(marker.position), axis=1)
-    warn_if_far(model.nodes, position, where)
+    warn_if_far(model.nodes, d, position, where)
     if model.has_rotations:
         nodes = np.array([int(np.argmin(d))])
     elif marker.radius is not None:
