@@ -13,8 +13,7 @@ from pipeline.core.atomic import atomic_path
 from pipeline.core.errors import ConfigError
 from pipeline.kinematics import evaluate_tree
 from pipeline.post.render import _pyvista, save_png
-
-_CAMERAS = ("xy", "xz", "yz", "iso")
+from pipeline.post.views import check_camera
 
 
 def link_poses(mech, q) -> np.ndarray:
@@ -309,16 +308,12 @@ def _furniture(plotter, pv, bounds, camera, style) -> list[np.ndarray]:
 def _camera(plotter, camera):
     """Named view, or a view direction (3,) (from the scene towards the camera; z up).
     2-D views are parallel projections (lengths read the same everywhere)."""
+    check_camera(camera)
     if not isinstance(camera, str):
         v = np.asarray(camera, dtype=float)
-        if v.shape != (3,) or not np.linalg.norm(v) > 0:
-            raise ConfigError(f"camera: expected a name {_CAMERAS} or a direction [x, y, z], "
-                              f"got {camera!r}")
         up = (0.0, 0.0, 1.0) if abs(v[2]) < 0.9 * np.linalg.norm(v) else (0.0, 1.0, 0.0)
         plotter.view_vector(v, viewup=up)
         return
-    if camera not in _CAMERAS:
-        raise ConfigError(f"camera: expected one of {_CAMERAS}, got {camera!r}")
     {"xy": plotter.view_xy, "xz": plotter.view_xz, "yz": plotter.view_yz,
      "iso": plotter.view_isometric}[camera]()
     if camera != "iso":

@@ -14,6 +14,7 @@ import numpy as np
 from pydantic import AfterValidator, Field, field_validator, model_validator
 
 from pipeline.post.units import ANGLE, FORCE, LENGTH, STRESS
+from pipeline.post.views import check_camera
 from pipeline.workflow.link_spec import LinkSpec, Mat3, Strict, Vec3
 
 Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*$")]
@@ -372,16 +373,8 @@ class PlotSpec(Strict):
     units: UnitsSpec | None = Field(None, description="this plot's units (default outputs.units)")
 
 
-def _view_direction(value):
-    """A named view, or a direction [x, y, z] that has one."""
-    if not isinstance(value, str) and not np.linalg.norm(value) > 0:
-        raise ValueError(f"expected a named view or a direction [x, y, z] of non-zero length, "
-                         f"got {value}")
-    return value
-
-
 Scale = Annotated[float, Field(gt=0)] | Literal["auto"]
-Camera = Annotated[Literal["xy", "xz", "yz", "iso"] | Vec3, AfterValidator(_view_direction)]
+Camera = Annotated[Literal["xy", "xz", "yz", "iso"] | Vec3, AfterValidator(check_camera)]
 
 
 class RenderSpec(Strict):
