@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit
 
 from pipeline.kinematics.compiled import _kernel as _kinematics
-from pipeline.kinematics.compiled import _mm
+from pipeline.kinematics.compiled import _mm, coordinate_vector
 
 __all__ = ["CompiledMasses", "closed_state", "compile_masses", "inertia_terms", "reduced_solve"]
 
@@ -84,11 +84,11 @@ def inertia_terms(cm: CompiledMasses, tree, q: np.ndarray, qd: np.ndarray | None
     homogeneous gravity [g, 0], m/s^2 (``System.gravity4``).
     """
     rates = qd is not None
-    n = q.shape[0]
+    n = tree.dA.shape[1]
+    q = coordinate_vector(q, n, "q")
     Ad = tree.Ad if rates else np.zeros((0, 4, 4))
     Add = tree.Add if rates else np.zeros((0, 4, 4))
-    M, h, Qg = _kernel(np.ascontiguousarray(q, dtype=float),
-                       np.ascontiguousarray(qd if rates else np.zeros(n), dtype=float), rates,
+    M, h, Qg = _kernel(q, coordinate_vector(qd, n, "qd") if rates else np.zeros(n), rates,
                        np.ascontiguousarray(tree.A), np.ascontiguousarray(tree.dA),
                        np.ascontiguousarray(Ad), np.ascontiguousarray(Add),
                        gravity4, cm.link, cm.n_modes,

@@ -169,13 +169,32 @@ def compile_mechanism(mech) -> CompiledMechanism:
 def evaluate(cm: CompiledMechanism, q: np.ndarray, qd: np.ndarray | None = None) -> Evaluation:
     """Poses, their q-derivatives, closure residual and Jacobian at q (n,); with qd (n,)
     also the pose rates A', A''|q''=0 and gamma."""
-    q = np.ascontiguousarray(q, dtype=float)
+    q = coordinate_vector(q, cm.n, "q")
     rates = qd is not None
-    qd = np.ascontiguousarray(qd, dtype=float) if rates else np.zeros_like(q)
+    qd = coordinate_vector(qd, cm.n, "qd") if rates else np.zeros_like(q)
     A, dA, Ad, Add, r, J, g = _kernel(q, qd, rates, *cm.arrays())
     if not rates:
         return Evaluation(A, dA, None, None, r, J, None)
     return Evaluation(A, dA, Ad, Add, r, J, g)
+
+
+def coordinate_vector(x, n: int, name: str = "q") -> np.ndarray:
+    """x as a contiguous float (n,) array; a ValueError for any other length.
+
+    The kernels index their state by the mechanism's tables without bounds checks, so a
+    vector of another model (a case that keeps fewer modes) would be read and written
+    past its end; this check at their entry makes that mistake loud.
+
+    >>> coordinate_vector([0, 1], 3)
+    Traceback (most recent call last):
+    ...
+    ValueError: q has 2 entries; the mechanism has 3 coordinates
+    """
+    x = np.ascontiguousarray(x, dtype=float)
+    if x.shape != (n,):
+        raise ValueError(f"{name} has {x.size if x.ndim == 1 else x.shape} entries; "
+                         f"the mechanism has {n} coordinates")
+    return x
 
 
 # --------------------------------------------------------------------------- kernels

@@ -12,6 +12,7 @@ import numpy as np
 from pipeline.core.atomic import atomic_path
 from pipeline.core.errors import ConfigError
 from pipeline.kinematics import evaluate_tree
+from pipeline.kinematics.compiled import coordinate_vector
 from pipeline.post.render import _pyvista, save_png
 from pipeline.post.views import check_camera
 
@@ -28,7 +29,7 @@ def posed_points(mech, shape, q, scale: float = 1.0, poses=None) -> tuple[np.nda
     ``scale``. The magnitude is the true (unscaled) elastic displacement. ``poses``:
     :func:`link_poses` at q, when several links are drawn at the same q.
     """
-    q = np.asarray(q, dtype=float)
+    q = coordinate_vector(q, mech.n)
     li = mech.link_index(shape.link)
     A = (link_poses(mech, q) if poses is None else poses)[li]
     return _placed(shape.points, shape.modes, A, q[mech.modal_index[li]], scale)
@@ -191,14 +192,31 @@ class _Pivots:
             self.fixed.points = P[self.grounded]
 
 
+def configurations(mech, shapes, Q) -> list[tuple]:
+    """[(mech, shapes, q)] for each configuration q of Q.
+
+    ``mech`` and ``shapes`` (LinkShapes by name) are either one machine's, for every q, or
+    sequences with one per q: the cases of an analysis may build different models (one
+    keeps no modes), and each q is posed only with the model it belongs to.
+    """
+    Q = [np.asarray(q, dtype=float) for q in Q]
+    mechs = list(mech) if isinstance(mech, (list, tuple)) else [mech] * len(Q)
+    shaped = list(shapes) if isinstance(shapes, (list, tuple)) else [shapes] * len(Q)
+    if not len(mechs) == len(shaped) == len(Q):
+        raise ValueError(f"{len(Q)} configurations, {len(mechs)} mechanisms and "
+                         f"{len(shaped)} shape sets: give one each, or one for all")
+    return list(zip(mechs, shaped, Q))
+
+
 def label_anchors(mech, shapes, Q, scale, sample: int = 400) -> np.ndarray:
     """(len(Q), 3) where to attach each configuration's label: its drawn point farthest
-    from every other configuration (what tells it apart), m."""
+    from every other configuration (what tells it apart), m. ``mech``, ``shapes``: as in
+    :func:`configurations`."""
     from scipy.spatial import cKDTree
 
     clouds = []
-    for q in Q:
-        P = np.vstack(_drawn_points(mech, shapes, q, scale))
+    for m, shp, q in configurations(mech, shapes, Q):
+        P = np.vstack(_drawn_points(m, shp, q, scale))
         clouds.append(P[:: max(1, len(P) // sample)])
     if len(clouds) == 1:
         return clouds[0][[int(np.argmax(np.linalg.norm(clouds[0] - clouds[0].mean(0), axis=1)))]]
@@ -211,11 +229,11 @@ def label_anchors(mech, shapes, Q, scale, sample: int = 400) -> np.ndarray:
 
 def _clim(mech, shapes, Q, scale, color="displacement"):
     top = 0.0
-    for q in Q:
-        poses = link_poses(mech, q)
-        for s in shapes.values():
-            eta = np.asarray(q, float)[mech.modal_index[mech.link_index(s.link)]]
-            v = _scalar(s, s.points, eta, posed_points(mech, s, q, 1.0, poses)[1], color)
+    for m, shp, q in configurations(mech, shapes, Q):
+        poses = link_poses(m, q)
+        for s in shp.values():
+            eta = q[m.modal_index[m.link_index(s.link)]]
+            v = _scalar(s, s.points, eta, posed_points(m, s, q, 1.0, poses)[1], color)
             if v is not None:
                 top = max(top, float(np.max(v, initial=0.0)))
     return [0.0, max(top, 1e-9)]
@@ -232,8 +250,10 @@ def _bar(plotter, scale, clim, color="displacement"):
 
 
 def scene_bounds(mech, shapes, Q, scale) -> np.ndarray:
-    """(3, 2) min/max of every drawn point over the configurations Q, m."""
-    P = np.vstack([p for q in Q for p in _drawn_points(mech, shapes, q, scale, joints=True)])
+    """(3, 2) min/max of every drawn point over the configurations Q, m. ``mech``,
+    ``shapes``: as in :func:`configurations`."""
+    P = np.vstack([p for m, shp, q in configurations(mech, shapes, Q)
+                   for p in _drawn_points(m, shp, q, scale, joints=True)])
     return np.column_stack([P.min(axis=0), P.max(axis=0)])
 
 
@@ -427,20 +447,23 @@ def render_positions(path, mech, shapes, Q, labels=None, *, scale: float = 1.0,
     """One PNG with the machine at several configurations (e.g. lower/middle/upper),
     one shared colour range, pivots, ground, scale bar and triad; ``labels`` are written
     next to each configuration without overlapping; ``ghost_q``: configurations drawn
-    as grey wireframes (e.g. the undeformed ones)."""
+    as grey wireframes (e.g. the undeformed ones), one per q. ``mech`` and ``shapes``:
+    one machine's, or one per configuration (cases of different models; see
+    :func:`configurations`)."""
     pv = _pyvista()
     style = style or Style()
-    Q = [np.asarray(q, dtype=float) for q in Q]
+    scene = configurations(mech, shapes, Q)
     clim = _clim(mech, shapes, Q, scale, style.color)
     plotter = pv.Plotter(off_screen=True, window_size=window_size)
     try:
         plotter.set_background("white")
-        for g in ghost_q or ():
-            _Drawn(plotter, pv, mech, shapes, g, 0.0, clim, style, ghost=True)
-        for q in Q:
-            _Drawn(plotter, pv, mech, shapes, q, scale, clim, style,
-                   opacity=1.0 if len(Q) == 1 else 0.9)
-            _Pivots(plotter, pv, mech, q, style, shapes)
+        if ghost_q is not None:
+            for (m, shp, _), g in zip(scene, ghost_q, strict=True):
+                _Drawn(plotter, pv, m, shp, g, 0.0, clim, style, ghost=True)
+        for m, shp, q in scene:
+            _Drawn(plotter, pv, m, shp, q, scale, clim, style,
+                   opacity=1.0 if len(scene) == 1 else 0.9)
+            _Pivots(plotter, pv, m, q, style, shp)
         bounds = scene_bounds(mech, shapes, Q, scale)
         extra = _furniture(plotter, pv, bounds, camera, style)
         _bar(plotter, scale, clim, style.color)

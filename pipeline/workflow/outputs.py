@@ -195,14 +195,15 @@ def _pick(rs, case, wf, *path):
     raise wf.error(*path, msg=f"expected a case among {[r.case for r in rs]}, got {case!r}")
 
 
-def _auto_scale(m, shapes, Q) -> float:
-    """Magnification that makes the largest elastic displacement ~5 % of the machine size."""
-    from pipeline.post.scene import posed_points
+def _auto_scale(mech, shapes, Q) -> float:
+    """Magnification that makes the largest elastic displacement ~5 % of the machine size.
+    ``mech``, ``shapes``: one machine's, or one per q (:func:`pipeline.post.scene.configurations`)."""
+    from pipeline.post.scene import configurations, posed_points
 
     size, peak = 1e-9, 0.0
-    for q in Q:
-        for shp in shapes.values():
-            P, d = posed_points(m.mechanism, shp, q, scale=1.0)
+    for m, shapes_q, q in configurations(mech, shapes, Q):
+        for shp in shapes_q.values():
+            P, d = posed_points(m, shp, q, scale=1.0)
             size = max(size, float(np.ptp(P, axis=0).max()))
             peak = max(peak, float(np.max(d, initial=0.0)))
     if peak <= 0:
@@ -237,13 +238,14 @@ def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
         rs = _with_data(rs, f"render {rs_spec.name!r}", skipped)
         if not rs:
             return None
-        m = machines[rs[0].case]
-        shapes = machine_shapes(m, rs_spec.links)
+        # each case drawn with its own machine: cases may keep different modes
+        mechs = [machines[r.case].mechanism for r in rs]
+        shapes = [machine_shapes(machines[r.case], rs_spec.links) for r in rs]
         Q = [r.q[-1] for r in rs]
-        scale = _scale(rs_spec.scale) or _auto_scale(m, shapes, Q)
-        render_positions(path, m.mechanism, shapes, Q, [r.case for r in rs], scale=scale,
+        scale = _scale(rs_spec.scale) or _auto_scale(mechs, shapes, Q)
+        render_positions(path, mechs, shapes, Q, [r.case for r in rs], scale=scale,
                          camera=rs_spec.camera, title=rs_spec.title or f"{wf.name}: {rs[0].name}",
-                         ghost_q=[rigid_configuration(m.mechanism, q) for q in Q],
+                         ghost_q=[rigid_configuration(mm, q) for mm, q in zip(mechs, Q)],
                          style=style)
         return path.name
     r = _pick(rs, rs_spec.case, wf, "outputs", "renders", idx, "case")
@@ -263,7 +265,7 @@ def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
     else:
         ks = [len(r.t) - 1]
     Q = [r.q[k] for k in ks]
-    scale = _scale(rs_spec.scale) or _auto_scale(m, shapes, Q)
+    scale = _scale(rs_spec.scale) or _auto_scale(m.mechanism, shapes, Q)
     title = rs_spec.title or f"{wf.name}: {r.label}"
     # the undeformed machine as a wireframe where deformation is the point (static results)
     ghosts = ([rigid_configuration(m.mechanism, q) for q in Q]
@@ -288,7 +290,7 @@ def _animate(folder, wf, machines, results, idx, an, skipped) -> str | None:
         return None
     m = machines[r.case]
     shapes = machine_shapes(m, an.links)
-    scale = _scale(an.scale) or _auto_scale(m, shapes, r.q[:: max(1, len(r.t) // 10)])
+    scale = _scale(an.scale) or _auto_scale(m.mechanism, shapes, r.q[:: max(1, len(r.t) // 10)])
     path = folder / f"{an.name}.{an.format}"
     animate_machine(path, m.mechanism, shapes, r.t, r.q, scale=scale, fps=an.fps,
                     max_frames=an.max_frames, camera=an.camera,
