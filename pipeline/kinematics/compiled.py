@@ -363,6 +363,11 @@ def _fast_step(s, q, qd, rates, fast, fastC, fastq, M, dM, Md, Mdd):
     """A rigid step with at most one motion in closed form (Step.fast): rotation
     M = C0 + sin x C1 + (1 - cos x) C2, translation M = C0 + x C1, fixed M = C0."""
     k = fast[s]
+    if k == 2:  # fixed: no coordinate to read (a mechanism may have none: q is empty)
+        for i in range(4):
+            for j in range(4):
+                M[i, j] = fastC[s, 0, i, j]
+        return
     x = q[fastq[s]]
     w = qd[fastq[s]]
     if k == 0:
@@ -384,10 +389,6 @@ def _fast_step(s, q, qd, rates, fast, fastC, fastq, M, dM, Md, Mdd):
                 if rates:
                     Md[i, j] = w * c1
                     Mdd[i, j] = 0.0
-    else:
-        for i in range(4):
-            for j in range(4):
-                M[i, j] = fastC[s, 0, i, j]
 
 
 @njit(cache=True)
