@@ -14,12 +14,26 @@ constraints by least-norm corrections (the drift is of the order of the local er
 integrator restarts from there with the step it had; a correction larger than ``jump``
 (coordinate units) means the step left the constraints far behind: it is repeated with a
 quarter of its size.
+
+A singular position -- the constraint rows lose rank, the index-1 solve relaxes the
+direction being lost, and the scipy method's steps collapse (from 0.1 s to 1e-7 s on the
+parallelogram) or drift off the constraints -- is crossed by design, not left to round-off
+(which used to decide whether the run passed it): when the accepted step falls below
+:data:`COLLAPSE` of the run's recent steps while the Jacobian's smallest kept singular
+value is below :data:`NEAR_SINGULAR` of its largest, or after :data:`BRIDGE_AFTER`
+rejections at one place, index-3 generalised-alpha steps (:mod:`pipeline.solver.index3`),
+which hold the constraints themselves and follow the branch by continuity, carry the run
+over it: :data:`BRIDGE_STEPS` steps of rtol^(1/3) times the recent step (their local error
+then about the tolerance; much shorter steps would leave the index-3 Newton matrix
+ill-conditioned, as 1/h^2), Newton at a hundredth of the tolerance. The scipy method
+resumes from their end.
 """
 
 from __future__ import annotations
 
 import logging
 import time
+from collections import deque
 
 import numpy as np
 
@@ -27,6 +41,7 @@ from pipeline.core.errors import PipelineError
 from pipeline.core.progress import progress_counter
 from pipeline.solver.constrained import REGULARISATION, ConstrainedSystem
 from pipeline.solver.index3_compiled import CompiledStepper, stepper
+from pipeline.solver.index3_compiled import stepper as make_stepper
 from pipeline.solver.monitors import StallWatch
 from pipeline.solver.outputs import OutputGrid, same_time
 from pipeline.solver.result import SimulationResult
@@ -41,6 +56,17 @@ __all__ = ["run_projected"]
 DRIFT = 100.0
 #: steps taken under a reduced step cap after such a rejection
 CAPPED_STEPS = 20
+#: rejections at one place before index-3 steps carry the run over it
+BRIDGE_AFTER = 3
+#: an accepted step below this share of the largest of the last :data:`RECENT` ones has
+#: collapsed
+COLLAPSE = 1e-2
+RECENT = 20
+#: the Jacobian's smallest kept singular value (its rank at the start) below this share of
+#: its largest: near a singular position
+NEAR_SINGULAR = 1e-2
+#: index-3 steps of such a bridge, each half the last step accepted before it
+BRIDGE_STEPS = 32
 
 
 class _Index1:
@@ -129,6 +155,26 @@ def run_projected(system, q0, qd0, t0, t1, te, solver_cls, name, *, rtol, atol,
                           first_step=first_step)
 
     nU = cs.U.size
+    stuck, bridges, since_bridge = 0, 0, BRIDGE_AFTER
+    recent: deque = deque(maxlen=RECENT)
+    rank0 = _rank(cs, f, t0, y)
+
+    def cross(t, y, h):
+        """Index-3 steps from (t, y) over a singular place; (why they failed or "", the
+        scipy solver resumed after them, or None at t1)."""
+        nonlocal steps, bridges, since_bridge
+        h_b = max(recent, default=h) * rtol ** (1.0 / 3.0)
+        bridged = _bridge(cs, f, grid, t, y, h_b, t1, rtol, atol, unit, jump)
+        if isinstance(bridged, str):
+            return bridged, None
+        t_b, y_b, n_b = bridged
+        advance(grid.k)
+        steps, bridges, since_bridge = steps + n_b, bridges + 1, 0
+        recent.clear()
+        if t_b >= t1 - same_time(t1):
+            return "", None
+        return "", make(t_b, y_b, first_step=min(h_b, t1 - t_b))
+
     with progress_counter(te.size, "simulating", progress) as advance:
         if grid.due(t0):
             grid.record(t0, q, v, y[2 * nU:])
@@ -151,18 +197,41 @@ def run_projected(system, q0, qd0, t0, t1, te, solver_cls, name, *, rtol, atol,
                                                         atol)
                 if moved > jump or drift > DRIFT:  # far off the constraints: repeat, shorter
                     rejected += 1
-                    if 0.25 * h < 1e-10 * max(t1 - t0, abs(t_prev)):
-                        msg = (f"the loops cannot be followed at t = {t_prev:.6g} s: even short "
-                               f"steps drift {drift:.3g} tolerances off them (a singular "
-                               "position?); method='generalized_alpha' passes such places")
-                        break
+                    stuck += 1
+                    if stuck >= BRIDGE_AFTER or 0.25 * h < 1e-10 * max(t1 - t0, abs(t_prev)):
+                        if since_bridge < BRIDGE_AFTER:  # scipy's steps fail right after one
+                            msg = (f"the loops cannot be followed at t = {t_prev:.6g} s: even "
+                                   f"short steps drift {drift:.3g} tolerances off them (a "
+                                   "singular position at a very tight tolerance?); "
+                                   "method='generalized_alpha' passes such places")
+                            break
+                        why, solver = cross(t_prev, y_prev, h)
+                        if why or solver is None:
+                            msg = (f"the loops cannot be followed at t = {t_prev:.6g} s: "
+                                   f"steps drift {drift:.3g} tolerances off them and "
+                                   f"index-3 steps failed there too ({why})") if why else None
+                            break
+                        continue
                     solver = make(t_prev, y_prev, first_step=0.25 * h, max_step=0.5 * h)
                     capped = CAPPED_STEPS
                     continue
+                stuck = 0
+                since_bridge += 1
                 dense = solver.dense_output() if grid.due(solver.t) else None
                 _fill(grid, f, dense, t_prev, solver.t, y_new)
                 advance(grid.k)
                 steps += 1
+                if rank0 and recent and h < COLLAPSE * max(recent) and \
+                        solver.t < t1 - same_time(t1) and \
+                        _near_singular(cs, f, solver.t, y_new, rank0):
+                    why, solver = cross(solver.t, y_new, h)
+                    if why or solver is None:
+                        msg = (f"the run cannot pass the singular position near t = "
+                               f"{t_prev:.6g} s: index-3 steps failed there ({why})"
+                               ) if why else None
+                        break
+                    continue
+                recent.append(h)
                 msg = stall(solver.t)
                 if msg:
                     break
@@ -178,8 +247,61 @@ def run_projected(system, q0, qd0, t0, t1, te, solver_cls, name, *, rtol, atol,
     total = time.perf_counter() - tic
     if msg:
         logger.warning("simulation: %s", msg)
-    stats = {"rejected": rejected, "restarts": restarts, "evaluations": f.count}
+    stats = {"rejected": rejected, "restarts": restarts, "evaluations": f.count,
+             "bridges": bridges}
     return grid.result(msg, steps, f.count, total, name, stats)
+
+
+def _rank(cs: ConstrainedSystem, f: _Index1, t, y) -> int:
+    """Rank of the closure Jacobian's integrated columns at (t, y) (0 without loops)."""
+    if not cs.m:
+        return 0
+    s = np.linalg.svd(cs.evaluate(t, *f.full(t, y)).C[:, cs.U], compute_uv=False)
+    return int(np.sum(s > 1e-8 * s[0])) if s.size and s[0] > 0 else 0
+
+
+def _near_singular(cs: ConstrainedSystem, f: _Index1, t, y, rank0: int) -> bool:
+    """The Jacobian's singular value number ``rank0`` is below :data:`NEAR_SINGULAR` of
+    its largest: a singular position is near (redundant rows, lost everywhere, do not
+    count)."""
+    s = np.linalg.svd(cs.evaluate(t, *f.full(t, y)).C[:, cs.U], compute_uv=False)
+    return s.size >= rank0 and s[rank0 - 1] < NEAR_SINGULAR * s[0]
+
+
+def _bridge(cs: ConstrainedSystem, f: _Index1, grid: OutputGrid, t, y, h, t1, rtol, atol,
+            unit, jump) -> tuple[float, np.ndarray, int] | str:
+    """Carry the run from (t, y) over a place the projected steps cannot follow with
+    :data:`BRIDGE_STEPS` index-3 generalised-alpha steps of size ``h`` (halved up to
+    three times if Newton fails), recording the outputs on the way; returns (t, y, steps)
+    at the end, or why it failed."""
+    nU = f.nU
+    q, v = f.full(t, y)
+    ga = make_stepper(cs, newton_rtol=1e-2 * rtol, newton_atol=1e-2 * atol,
+                      closure_tol=1e-10, unit=unit, jump=jump)
+    why = ""
+    for _ in range(4):
+        s, work = ga.start(t, q, v), np.array(y[2 * nU:], dtype=float)
+        path = []
+        for _ in range(BRIDGE_STEPS):
+            hk = min(h, t1 - s.t)
+            out = ga.step(s, hk)
+            if out.state is None:
+                why = f"{out.why} at t = {s.t:.6g} s"
+                break
+            work1 = work + 0.5 * hk * (s.powers + out.state.powers)
+            path.append((s, work, out.state, work1))
+            s, work = out.state, work1
+            if s.t >= t1 - same_time(t1):
+                break
+        else:
+            why = ""
+        if not why or s.t >= t1 - same_time(t1):
+            for s0, w0, s1, w1 in path:
+                grid.fill_hermite(s0.t, s0.q, s0.v, w0, s1.t, s1.q, s1.v, w1)
+            return s.t, np.concatenate([s.q[cs.U], s.v[cs.U], work]), len(path)
+        h *= 0.5
+        ga.reset()
+    return why
 
 
 def _fill(grid: OutputGrid, f: _Index1, dense, t0, t1, y1):
