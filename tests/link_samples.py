@@ -101,3 +101,28 @@ def solid_bar_spec(name: str, length: float, b: float, h: float, *, mesh_size: f
               for n, g, x in zip(ends, ("end_x0", "end_xL"), (0.0, length), strict=True)]
     lines += [f"reference: {ends[0]}", f"modes: {modes}"]
     return "\n".join(lines) + "\n"
+
+
+def boom_spec(length: float, pin: float, *, A: float, Iy: float, Iz: float, J: float,
+              modes: str, neck_iz: float | None = None, E: float = 2.1e11,
+              element_size: float = 0.05) -> str:
+    """The YAML of a straight beam boom along x with interfaces ``root`` (the reference, at
+    0), ``pin`` and ``tip`` (at ``pin`` and ``length``, m); with ``neck_iz`` its first 5 cm
+    have that second moment about z (a small, soft bore at the root)."""
+    stations = [0.0] + ([0.05] if neck_iz is not None else []) + [pin, length]
+    names = ["root"] + (["neck"] if neck_iz is not None else []) + ["pin", "tip"]
+    n = len(stations) - 1
+    main = list(range(1, n)) if neck_iz is not None else list(range(n))
+    sections = [f"  - {{A: {A!r}, Iy: {Iy!r}, Iz: {Iz!r}, J: {J!r}, members: {main}}}"]
+    if neck_iz is not None:
+        sections.append(f"  - {{A: {A!r}, Iy: {Iy!r}, Iz: {neck_iz!r}, J: {J!r}, members: [0]}}")
+    points = ", ".join(f"[{x!r}, 0, 0]" for x in stations)
+    lines = ["name: boom",
+             (f"geometry: {{type: beam, points: [{points}], vertex_names: {names}, "
+              f"element_size: {element_size!r}}}"),
+             f"material: {{E: {E!r}, nu: 0.3, rho: 7850}}", "sections:", *sections,
+             "interfaces:"]
+    lines += [f"  - {{name: {nm}, selector: {{type: nearest, point: [{x!r}, 0, 0]}}}}"
+              for nm, x in (("root", 0.0), ("pin", pin), ("tip", length))]
+    lines += ["reference: root", f"modes: {modes}"]
+    return "\n".join(lines) + "\n"

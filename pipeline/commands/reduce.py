@@ -23,6 +23,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from pipeline.core.errors import MeshError, ModalError, PipelineError
+    from pipeline.invariants.adequacy import coverage_report
     from pipeline.workflow.link_build import reduce_spec
     from pipeline.workflow.link_spec import load_link_spec_lines, locate
 
@@ -35,7 +36,8 @@ def run(args: argparse.Namespace) -> int:
         raise type(exc)(locate(str(exc), spec, args.spec, lines, default)) from None
     summary = {**link.summary(), "artifact": str(args.out / f"{link.name}.npz"),
                "cache": status, "mesh_quality": dict(link.meta.get("mesh", {})),
-               "effective_mass_fraction": _effective_masses(link)}
+               "effective_mass_fraction": _effective_masses(link),
+               "static_coverage": coverage_report(link)}
     if args.render:
         from pipeline.post.render import render_modes
 
@@ -87,6 +89,26 @@ def _print_table(s: dict) -> None:
             e.add_row(str(k), f"{f:.4g}", *(_pct(x) for x in row))
         e.add_row("sum", "", *(_pct(x) for x in np.sum(rows, axis=0)), style="bold")
         con.print(e)
+    _print_coverage(con, s["static_coverage"])
+
+
+def _print_coverage(con, report: dict) -> None:
+    """The static compliance the modes carry at each frame, and a line per shortfall."""
+    from rich.table import Table
+
+    if not report["rows"]:
+        return
+    c = Table(title="static compliance the modes carry at each frame, % of the full FE "
+                    "model's (the link held at its reference only; the machine's own "
+                    "supports are checked when a workflow builds it)")
+    for col in ("frame", "direction", "share"):
+        c.add_column(col, justify="right")
+    for r in report["rows"]:
+        c.add_row(r["frame"], r["direction"], f"{100 * r['share']:.1f}",
+                  style=None if r["relevant"] else "dim")  # dim: too stiff to matter
+    con.print(c)
+    for w in report["warnings"]:
+        con.print(f"[yellow]warning:[/yellow] {w}")
 
 
 def _effective_masses(link) -> dict[str, list[list[float]]]:

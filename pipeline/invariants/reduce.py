@@ -22,6 +22,7 @@ from pipeline.fem.model import FemModel
 from pipeline.fem.moments import MassMoments, mass_moments
 from pipeline.fem.rigid_fit import warn_if_far
 from pipeline.fem.stress import RESULTANTS, VOIGT, stress_modes, tensor_to_voigt, voigt_to_tensor
+from pipeline.invariants.adequacy import DIRECTIONS
 from pipeline.invariants.body_frame import congruent, inverse_pose, points_to_body, vectors_to_body
 from pipeline.invariants.participation import align_repeated
 from pipeline.invariants.reduced_link import FrameModes, ReducedLink
@@ -109,6 +110,14 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
         motions = [(itf, *frame_motion(model, tied, basis, itf)) for itf in
                    _reference_first(interfaces, request.reference) + markers]
     ref = tied.interface(request.reference)
+    with stage(f"interface compliance of link '{name}'", times):
+        from pipeline.modes.compliance import interface_compliance
+
+        loaded = [m[0] for m in motions[1:]]  # every frame but the reference
+        compliance = {"frames": [f.name for f in loaded], "directions": list(DIRECTIONS),
+                      "units": "m/N, rad/N, m/(N m), rad/(N m); body axes",
+                      "matrix": interface_compliance(model, tied, problem, loaded,
+                                                     ref.pose[:3, :3]).tolist()}
     KG, KF, KI, stiffening = None, None, None, {}
     if request.geometric_stiffening:
         from pipeline.fem.geometric import CENTRIFUGAL_CASES, INERTIA_CASES
@@ -130,7 +139,7 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
             "stage_seconds": times.as_dict(), "mesh": _mesh_quality(mesh, moments, request),
             "reference_conditions": {"reference": request.reference, "chord": request.chord,
                                      "craig_bampton": basis.settings.get("cb_interfaces", [])},
-            **stiffening, **(meta or {})}
+            "interface_compliance": compliance, **stiffening, **(meta or {})}
     with stage(f"stress modes of link '{name}'", times):
         S = _stress_to_body(model, ref.pose, stress_modes(model, basis.shapes))
     info["stage_seconds"] = times.as_dict()  # with the stress modes

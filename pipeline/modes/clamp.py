@@ -206,8 +206,17 @@ class ClampedProblem:
         self._lu = {}
 
     def factor(self, ordering: str | None = None):
-        """SuperLU of K_c (:func:`pipeline.modes.eigen.factorize`), cached per ordering."""
+        """A factorisation of K_c (:func:`pipeline.modes.eigen.factorize`), cached per
+        ordering; the one :meth:`share` was given, if any."""
         ordering = ordering or DEFAULT_ORDERING
+        if "shared" in self._lu:
+            return self._lu["shared"]
         if ordering not in self._lu:
             self._lu[ordering] = factorize(self.K, ordering, where=self._where)
         return self._lu[ordering]
+
+    def share(self, solver) -> None:
+        """Use ``solver`` (an object with ``solve(b)`` for K_c, e.g. the Craig-Bampton
+        block solve on the factor of K_ii) for every later static solve instead of
+        factorising K_c again."""
+        self._lu["shared"] = solver

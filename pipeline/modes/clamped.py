@@ -92,7 +92,7 @@ def clamped_modes(tied: TiedModel, reference: str | Interface, n_modes: int | No
         if craig_bampton:
             boundary = np.concatenate([space.index_of(tied.master_dofs[n]) for n in cb_names])
             lam, X, kinds = craig_bampton_basis(K_c, M_c, boundary, n_modes, f_max,
-                                           ordering=ordering, where=where)
+                                           ordering=ordering, where=where, problem=problem)
         else:
             lu = problem.factor(ordering) if space.n_c >= DENSE_BELOW else None
             factor = "none (dense)" if lu is None else \

@@ -23,9 +23,40 @@ from pipeline.core.errors import ConfigError, ModalError
 from pipeline.modes.eigen import DEFAULT_ORDERING, factorize, lowest_modes
 
 
+class BlockSolve:
+    """Solves K x = b of a clamped model on the factor of its interior block K_ii (the
+    Craig-Bampton factor): b's interior part through K_ii, the boundary through the dense
+    Schur complement S = K_bb + K_bi Psi_i (the Guyan stiffness),
+
+        x_b = S^-1 (b_b - K_bi K_ii^-1 b_i),   x_i = K_ii^-1 b_i + Psi_i x_b,
+
+    so a link reduced by Craig-Bampton needs no factorisation of the whole of K.
+    """
+
+    def __init__(self, K: sp.spmatrix, boundary: np.ndarray, lu, Psi: np.ndarray):
+        K = sp.csr_matrix(K)
+        self.shape = K.shape
+        self._b = np.asarray(boundary, dtype=np.int64)
+        self._i = np.setdiff1d(np.arange(K.shape[0]), self._b)
+        self._K_bi = K[self._b][:, self._i]
+        self._lu, self._Psi = lu, Psi
+        S = K[self._b][:, self._b].toarray() + self._K_bi @ Psi
+        self._S = la.cho_factor(_sym(S))
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """x with K x = b, b (n,) or (n, k)."""
+        b = np.asarray(b, dtype=float)
+        y = np.asarray(self._lu.solve(b[self._i]))
+        x_b = la.cho_solve(self._S, b[self._b] - self._K_bi @ y)
+        x = np.empty_like(b)
+        x[self._i] = y + self._Psi @ x_b
+        x[self._b] = x_b
+        return x
+
+
 def craig_bampton_basis(K: sp.spmatrix, M: sp.spmatrix, boundary: np.ndarray,
                   n_modes: int | None = None, f_max: float | None = None, *,
-                  ordering: str = DEFAULT_ORDERING, where: str = "model"
+                  ordering: str = DEFAULT_ORDERING, where: str = "model", problem=None
                   ) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
     """Orthonormalised Craig-Bampton basis of a clamped model.
 
@@ -37,6 +68,8 @@ def craig_bampton_basis(K: sp.spmatrix, M: sp.spmatrix, boundary: np.ndarray,
     f_max : cut-off for the fixed-interface modes, Hz.
     ordering : SuperLU ordering for K_ii.
     where : label for messages.
+    problem : the ClampedProblem of (K, M), given its static solves on the factor of K_ii
+        (:class:`BlockSolve`, :meth:`pipeline.modes.clamp.ClampedProblem.share`).
 
     Returns
     -------
@@ -57,6 +90,8 @@ def craig_bampton_basis(K: sp.spmatrix, M: sp.spmatrix, boundary: np.ndarray,
     M_ii = sp.csr_matrix(M)[interior][:, interior]
     lu = factorize(K_ii, ordering, where=where)
     Psi = -lu.solve(np.asarray(K_ib.toarray()))  # (n_i, n_b)
+    if problem is not None:
+        problem.share(BlockSolve(K, boundary, lu, Psi))
     if n_modes == 0:  # Guyan: static constraint modes only
         Phi = np.zeros((interior.size, 0))
     else:

@@ -265,7 +265,7 @@ def run_analysis(m: Machine, name: str) -> AnalysisResult:
                                 ("analyses", i, "initial"))
         m = replace(m, q0=q0, qd0=qd0)
     out = RUNNERS[a.type](m, a, ("analyses", i))
-    return AnalysisResult(
+    result = AnalysisResult(
         name=a.name,
         type=a.type,
         case=wf.case,
@@ -273,3 +273,7 @@ def run_analysis(m: Machine, name: str) -> AnalysisResult:
         timings={"total": time.perf_counter() - t0},
         **out,
     )
+    if m.model_warnings and a.type != "kinematic":  # kinematics hold the modes at zero
+        result = replace(result, warnings=tuple(result.warnings) + m.model_warnings,
+                         verdict="suspect" if result.verdict == "ok" else result.verdict)
+    return result

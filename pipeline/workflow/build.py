@@ -27,12 +27,11 @@ from pipeline.kinematics.links import link_from_frames
 from pipeline.workflow.link_build import frame_axes, input_hash, link_request, reduce_spec
 from pipeline.workflow.link_spec import LinkSpec
 from pipeline.workflow.load import Workflow
+from pipeline.workflow.model_checks import basis_warnings
 from pipeline.workflow.overrides import apply_overrides
-from pipeline.workflow.schema import inertia_matrix
+from pipeline.workflow.schema import MARKER_FIELDS, inertia_matrix
 from pipeline.workflow.yaml_io import _yaml_path, error_lines, error_message, load_yaml
 
-#: fields of force elements that name a marker as "link.frame"
-MARKER_FIELDS = ("marker", "marker_a", "marker_b")
 
 
 @dataclass(frozen=True)
@@ -53,6 +52,9 @@ class Machine:
     workflow : the Workflow it came from.  system : pipeline.dynamics.System.
     q0 : (n,) assembled initial coordinates (drivers at t = 0).  qd0 : (n,) initial rates.
     parts : link name -> FlexPart for links built from a link spec (flexible or meshed rigid).
+    model_warnings : what the model cannot represent of what the machine asks of it, one
+        line each (:mod:`pipeline.workflow.model_checks`); the analyses that depend on the
+        flexible links are then ``suspect``.
     """
 
     workflow: Workflow
@@ -60,6 +62,7 @@ class Machine:
     q0: np.ndarray
     qd0: np.ndarray
     parts: dict = field(default_factory=dict)
+    model_warnings: tuple[str, ...] = ()
 
     @property
     def mechanism(self):
@@ -411,4 +414,5 @@ def build_machine(wf: Workflow, cache_dir: str | Path = "output/links",
     q0, qd0 = initial_state(wf, mech, drivers)
     forces = build_forces(wf, mech, q0)
     system = System(mech, bodies, wf.spec.gravity, forces=forces, drivers=drivers)
-    return Machine(wf, system, q0, qd0, parts)
+    machine = Machine(wf, system, q0, qd0, parts)
+    return dataclasses.replace(machine, model_warnings=basis_warnings(wf, machine))

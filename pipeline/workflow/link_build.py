@@ -112,9 +112,9 @@ def _sections_per_member(spec: LinkSpec) -> list:
 #: bumped whenever the reduction's numbers change for the same spec (2: repeated
 #: frequencies completed and aligned with the body axes; 3: stress modes; 4: frame-force
 #: geometric stiffness; 5: reference conditions in the meta, chord references; 6: the
-#: acceleration cases' geometric stiffness; 7: the twelve inertia cases), so cached
-#: artifacts are rebuilt
-REDUCTION_REVISION = 7
+#: acceleration cases' geometric stiffness; 7: the twelve inertia cases; 8: the frames'
+#: static compliance on the full model), so cached artifacts are rebuilt
+REDUCTION_REVISION = 8
 
 
 def input_hash(spec: LinkSpec, files: tuple[Path, ...]) -> str:

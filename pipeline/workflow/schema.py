@@ -21,6 +21,10 @@ Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*$")]
 Inertia = Annotated[list[float], Field(min_length=6, max_length=6)] | Mat3
 
 
+#: fields of force elements that name a marker as "link.frame"
+MARKER_FIELDS = ("marker", "marker_a", "marker_b")
+
+
 class FrameSpec(Strict):
     """A frame fixed to a link: origin (m) and axes in the link's coordinates."""
 

@@ -120,3 +120,26 @@ def test_reduce_says_which_modes_and_which_stiffening(tmp_path, capsys, modes, c
     table = " ".join(re.sub("[│┃]", " ", capsys.readouterr().out).split())  # rich wraps cells
     assert re.search(r"modes relative to .*" + re.escape(conditions.split(" (")[0]), table)
     assert re.search(r"geometric stiffening .*" + re.escape(stiffening.split(";")[0]), table)
+
+
+def test_reduce_reports_the_static_compliance_its_modes_carry(tmp_path, capsys):
+    """One clamped mode of a cantilever bends it in one plane only: the tip's lateral
+    compliance in the other plane (a quarter of the first's: Iy = 4 Iz) is missing, and
+    the summary says so with the remedy; with two modes both planes are carried."""
+    (tmp_path / "beam.yaml").write_text(beam_spec(
+        "beam", 1.0, A=1e-4, Iy=4e-8, Iz=1e-8, J=4e-8, element_size=0.05,
+        interfaces=("root", "tip"), modes="{count: 1}"))
+    assert main(["reduce", str(tmp_path / "beam.yaml"), "--out", str(tmp_path / "l"),
+                 "--json"]) == 0
+    cov = json.loads(capsys.readouterr().out)["static_coverage"]
+    share = {(r["frame"], r["direction"]): r["share"] for r in cov["rows"]}
+    assert share[("tip", "y")] == pytest.approx(0.9707, abs=2e-3)  # the first mode's share
+    assert share[("tip", "z")] < 1e-9
+    (line,) = cov["warnings"]
+    assert "link 'beam', held at its reference" in line and "z 0 % at 'tip'" in line
+    assert "keep more modes" in line and "craig_bampton" in line
+    (tmp_path / "beam.yaml").write_text((tmp_path / "beam.yaml").read_text().replace(
+        "modes: {count: 1}", "modes: {count: 2}"))
+    assert main(["reduce", str(tmp_path / "beam.yaml"), "--out", str(tmp_path / "l")]) == 0
+    table = capsys.readouterr().out
+    assert "static compliance" in table and "warning" not in table

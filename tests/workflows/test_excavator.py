@@ -102,5 +102,5 @@ def test_quick_run_is_ok_and_the_boom_sags_under_the_load(run):
         # P L^3 / 3 E I ~ 6 mm (docs/excavator.md); the cylinder lug props it, so less
         assert -10e-3 < sag < -0.1e-3, sag
     slew = [r for r in run.results["slew"]]
-    assert [r.verdict for r in slew] == ["ok"] * 4
+    assert [r.verdict for r in slew] == ["ok"] * 3
     assert (run.out_dir / "boom_modes.csv").exists() and (run.out_dir / "positions.png").exists()

@@ -1,0 +1,214 @@
+"""Does a reduction basis carry the link's load paths? Static coverage of its frames.
+
+The reduction stores the full FE model's compliance C between the link's frames
+(:func:`pipeline.modes.compliance.interface_compliance`, in the artifact's meta). Its
+attachment modes (the static deflections under unit loads at the frames) are a Ritz basis
+with exactly the full model's static behaviour at the frames; the kept modes are another.
+For a load at a frame, the compliance each reproduces -- the largest (w.u)^2 / strain
+energy over its motions u, under whatever the machine holds -- is compared: the kept modes'
+share (Rayleigh-Ritz keeps it <= 1) is how much of the link's static flexibility there the
+model can show.
+
+Held at its reference only, a link clamped at one small bore reproduces its far frames'
+compliance well. In a machine that also holds it elsewhere (a boom on its cylinder) the
+same modes can be nearly useless: they are rotations about the bore, which the second
+support forbids, and the bending between the supports is not in the basis (a knuckle boom
+came out 7x too stiff). :func:`constrained_coverage` measures that case with the
+conditions the assembled machine imposes (``pipeline.workflow.model_checks``).
+
+Nothing here reads the FE model: the checks run on the artifact's arrays.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: directions of a frame's six motions, body axes
+DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
+
+#: a share of the static compliance below this is reported (10 % of the flexibility missing)
+MIN_COVERAGE = 0.9
+
+#: directions softer than this share of the link's softest frame translation count (an
+#: axial direction of a slender link, 1e-4 to 1e-3 of its bending compliance, or a pin the
+#: machine holds fast, is not worth a warning)
+RELEVANT_SHARE = 1e-2
+
+#: a held row whose motion on the kept modes is below this share of their largest frame
+#: motion holds nothing (round-off of an asymmetric mesh, not a load path)
+HOLD_RTOL = 1e-6
+
+
+@dataclass(frozen=True)
+class Coverage:
+    """Static compliance of one frame direction, full FE model vs kept modes.
+
+    Attributes
+    ----------
+    frame, direction : the frame's name and one of :data:`DIRECTIONS` (body axes).
+    full, kept : compliance of the full FE model and of the kept modes, m/N (rotations
+        rad/(N m)).
+    relevant : the direction is soft enough to matter (see :data:`RELEVANT_SHARE`).
+    """
+
+    frame: str
+    direction: str
+    full: float
+    kept: float
+    relevant: bool
+
+    @property
+    def ratio(self) -> float:
+        """kept / full (1 where the full model has no compliance there)."""
+        return 1.0 if self.full <= 0 else self.kept / self.full
+
+
+def stored_compliance(link) -> tuple[tuple[str, ...], np.ndarray] | None:
+    """(frame names, (6F, 6F) compliance) the reduction stored, or None for an artifact
+    made before it was measured."""
+    entry = link.meta.get("interface_compliance")
+    if not entry:
+        return None
+    n = 6 * len(entry["frames"])
+    return tuple(entry["frames"]), np.asarray(entry["matrix"], dtype=float).reshape(n, n)
+
+
+def frame_motions(link, modes=None) -> tuple[tuple[str, ...], np.ndarray, np.ndarray,
+                                               np.ndarray] | None:
+    """(names, G, K, C) of the frames with stored compliance: G (6F, m) each frame's
+    [translation; rotation] per kept mode (body axes), K (m, m) the kept modal stiffness,
+    C (6F, 6F) the full model's compliance; None without stored compliance."""
+    stored = stored_compliance(link)
+    if stored is None:
+        return None
+    names, C = stored
+    idx = list(range(link.n_modes)) if modes is None else list(modes)
+    G = np.vstack([np.vstack([link.frame(n).phi[idx].T, link.frame(n).psi[idx].T])
+                   for n in names]) if names else np.zeros((0, len(idx)))
+    K = np.asarray(link.modal_stiffness, dtype=float)[np.ix_(idx, idx)]
+    return names, G, K, C
+
+
+def static_coverage(link, modes=None, directions=DIRECTIONS[:3]) -> list[Coverage]:
+    """Coverage of each stored frame's ``directions`` (body axes) by the kept ``modes``
+    (default all), the link held at its reference only (a cantilever from its reference:
+    right for an open chain; a machine holds it elsewhere too, see
+    :func:`constrained_coverage`). [] without stored compliance."""
+    fm = frame_motions(link, modes)
+    if fm is None:
+        return []
+    names, G, K, C = fm
+    rows = [(n, d, np.eye(len(C))[6 * i + DIRECTIONS.index(d)])
+            for i, n in enumerate(names) for d in directions]
+    return constrained_coverage(G, K, C, rows, np.zeros((0, len(C))))
+
+
+def constrained_coverage(G: np.ndarray, K: np.ndarray, C: np.ndarray, rows,
+                         held: np.ndarray, scale: float | None = None) -> list[Coverage]:
+    """Coverage of loaded directions under linear conditions on the frames' motions.
+
+    Parameters
+    ----------
+    G, K, C : as :func:`frame_motions` returns them.
+    rows : (frame, direction, w) with w (6F,): the loaded direction's displacement is
+        w . u for frame motions u (a frame's own row, or, in a machine, its ground
+        displacement including the rigid motion the loops give the link).
+    held : (k, 6F) combinations of frame motions the machine holds at zero.
+    scale : the compliance that counts as large, m/N (a machine: its softest loaded
+        frame, over all its flexible links); default the largest translational full
+        compliance among ``rows``.
+
+    Returns
+    -------
+    one Coverage per row; ``relevant`` where its full compliance is at least
+    :data:`RELEVANT_SHARE` of ``scale``: a frame the machine holds fast (a two-force
+    link's far pin) has little worth carrying.
+    """
+    Ga, Ka = attachment_basis(C)
+    full = [ritz_compliance(Ga, Ka, w, held) for _, _, w in rows]
+    top = scale if scale is not None else max(
+        (f for f, (_, d, _) in zip(full, rows) if not d.startswith("r")), default=0.0)
+    return [Coverage(frame, d, f, ritz_compliance(G, K, w, held),
+                     relevant=f > 0 and (d.startswith("r") or f >= RELEVANT_SHARE * top))
+            for f, (frame, d, w) in zip(full, rows)]
+
+
+def attachment_basis(C: np.ndarray, rtol: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
+    """(G, K) of the full model's static response at the frames as a Ritz basis.
+
+    The attachment modes K^-1 G^T (the static deflections under the frames' unit loads)
+    move the frames by C and store C in strain energy; in C's eigenvectors V (eigenvalues
+    lam above ``rtol`` of the largest) that is G = V sqrt(lam), K = I: the same static
+    behaviour at the frames as the whole FE model's.
+    """
+    lam, V = np.linalg.eigh(0.5 * (C + C.T))
+    keep = lam > rtol * max(float(lam.max(initial=0.0)), 1e-300)
+    return V[:, keep] * np.sqrt(lam[keep]), np.eye(int(keep.sum()))
+
+
+def ritz_compliance(G: np.ndarray, K: np.ndarray, w: np.ndarray, held: np.ndarray) -> float:
+    """Compliance (w.u)^2 / energy maximised over the frame motions u = G a of a Ritz model
+    (coordinates a, stiffness K (m, m), G (6F, m)) with held @ u = 0.
+
+    (w G Z) (Z^T K Z)^-1 (w G Z)^T, Z the combinations the held rows leave free. A held
+    row that moves a coordinate by less than :data:`HOLD_RTOL` of that coordinate's own
+    largest frame translation holds nothing there (round-off of a mesh that is not quite
+    symmetric is no load path, and must not lock a mode).
+    """
+    m = K.shape[0]
+    if m == 0:
+        return 0.0
+    Z = np.eye(m)
+    if held.size:
+        translations = [k for k in range(G.shape[0]) if k % 6 < 3]
+        size = np.abs(G[translations]).max(axis=0, initial=0.0)
+        # a mode that moves no frame (zero at every frame) is measured against the others
+        size = np.maximum(size, HOLD_RTOL * max(float(size.max(initial=0.0)), 1e-300))
+        # each coordinate measured against its own largest frame motion (the held rows
+        # are per unit frame motion: O(1) where they act, round-off where they do not)
+        _, s, Vt = np.linalg.svd(held @ G / size, full_matrices=True)
+        rank = int(np.sum(s > HOLD_RTOL))
+        Z = (Vt[rank:] / size).T
+        if Z.shape[1] == 0:
+            return 0.0
+    g = w @ G @ Z
+    return float(g @ np.linalg.solve(Z.T @ K @ Z, g))
+
+
+def coverage_warnings(link_name: str, rows: list[Coverage], remedy: str,
+                      condition: str = "held at its reference") -> list[str]:
+    """One line (or none) for a link whose kept modes under-represent relevant directions
+    (below :data:`MIN_COVERAGE`), naming each frame's directions and shares, the
+    ``condition`` and the ``remedy``."""
+    by_frame: dict[str, list[Coverage]] = {}
+    for c in rows:
+        if c.relevant and c.ratio < MIN_COVERAGE:
+            by_frame.setdefault(c.frame, []).append(c)
+    if not by_frame:
+        return []
+    what = "; ".join(", ".join(f"{c.direction} {100 * c.ratio:.0f} %" for c in cs)
+                     + f" at {frame!r}" for frame, cs in by_frame.items())
+    return [(f"link {link_name!r}, {condition}: its kept modes carry only {what} of the "
+             f"full FE model's static compliance (body axes), so it comes out too stiff; "
+             f"{remedy}")]
+
+
+def coverage_report(link, modes=None, directions=DIRECTIONS[:3]) -> dict:
+    """The static coverage of a link's frames by its (kept) modes, the link held at its
+    reference only (:func:`static_coverage`).
+
+    Returns
+    -------
+    {"rows": [{frame, direction, share, relevant}] (share of the full FE model's
+    compliance, 0..1), "warnings": [...]} (empty rows without stored compliance).
+    """
+    rows = static_coverage(link, modes, directions)
+    remedy = ("keep more modes (modes.count)" if "constraint" in link.mode_kinds else
+              "keep more modes (modes.count), or reduce it with Craig-Bampton modes "
+              "(modes: {craig_bampton: true}), whose static modes carry every interface's "
+              "loads")
+    return {"rows": [{"frame": c.frame, "direction": c.direction, "share": c.ratio,
+                      "relevant": c.relevant} for c in rows],
+            "warnings": coverage_warnings(link.name, rows, remedy)}

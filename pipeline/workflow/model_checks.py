@@ -1,0 +1,154 @@
+"""Checks of the model a workflow builds, before anything runs: can it represent what the
+machine asks of it? Each finding is one line naming the link, the figure and the remedy;
+the analyses that depend on it are then ``suspect``, never ``ok``.
+
+Reduction basis (:mod:`pipeline.invariants.adequacy`): for each flexible link, the static
+compliance its kept modes carry where the machine loads it, with the machine's own
+supports. The link's frames are given one coordinate per motion ("unit modes"), and the
+machine's closure Jacobian at its initial configuration, drivers held, tells
+
+* which combinations of the frames' motions the loops hold (what the other joints cannot
+  take up: the cylinder that holds a boom's lug), and
+* how far each frame moves over ground when the frames move (a boom turning about its foot
+  as its lug moves along the cylinder),
+
+and the kept modes are compared with the full FE model's static response
+(its attachment modes) under those same conditions.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from pipeline.invariants.adequacy import (
+    DIRECTIONS,
+    constrained_coverage,
+    coverage_warnings,
+    frame_motions,
+    static_coverage,
+)
+from pipeline.invariants.reduced_link import FrameModes
+from pipeline.workflow.schema import MARKER_FIELDS
+
+#: the body-axis directions that matter in each kept plane
+_PLANE_DIRECTIONS = {None: ("x", "y", "z"), "xy": ("x", "y"), "xz": ("x", "z"),
+                     "yz": ("y", "z")}
+
+
+def basis_warnings(wf, machine) -> tuple[str, ...]:
+    """One line per flexible link whose kept modes miss a share of the static compliance
+    where the machine loads it (joints and force elements), on the machine's supports.
+
+    A direction counts when its compliance is at least
+    :data:`pipeline.invariants.adequacy.RELEVANT_SHARE` of the softest the machine is: the
+    largest over its flexible links of their loaded frames' compliance in the machine and
+    of their frames' compliance held at the reference only (a connecting rod loaded at its
+    pins only along its axis still bends under its own inertia). A stiff link's far pin
+    that its loop holds fast is then no finding.
+    """
+    checked = []
+    for name, part in machine.parts.items():
+        entry = wf.spec.links[name]
+        if entry.type != "flexible" or not part.modes or frame_motions(part.reduced) is None:
+            continue
+        directions = _PLANE_DIRECTIONS[getattr(entry, "plane", None)]
+        rows, held, _ = machine_conditions(wf, machine, name, getattr(entry, "plane", None))
+        _, G, K, C = frame_motions(part.reduced, part.modes)
+        alone = max((c.full for c in static_coverage(part.reduced, part.modes, directions)),
+                    default=0.0)
+        checked.append((name, part, G, K, C, rows, held,
+                        max([alone] + [c.full for c in constrained_coverage(G, K, C, rows, held)
+                                       if not c.direction.startswith("r")])))
+    scale = max((c[-1] for c in checked), default=0.0)
+    out: list[str] = []
+    for name, part, G, K, C, rows, held, _ in checked:
+        cover = constrained_coverage(G, K, C, rows, held, scale)
+        constraint = sum(part.reduced.mode_kinds[a] == "constraint" for a in part.modes)
+        remedy = (f"keep more of its modes (links.{name}.modes)" if constraint else
+                  f"reduce it with Craig-Bampton modes (modes: {{craig_bampton: true}} in "
+                  f"its link spec), whose static modes carry the interfaces' loads, or keep "
+                  f"more modes (links.{name}.modes)")
+        out += coverage_warnings(name, cover, remedy, "on the machine's supports")
+    return tuple(out)
+
+
+def machine_conditions(wf, machine, name: str, plane: str | None):
+    """(rows, held, frame names) of link ``name`` in the machine at its initial
+    configuration, drivers held and the other links rigid.
+
+    rows : (frame, direction, w) for every frame a joint or a force element loads
+        (:func:`loaded_frames`; a workflow frame moves with the stored frame it is fixed on),
+        w (6F,)
+        its ground displacement along the body axis ``direction`` per unit motion of the
+        link's frames (the rigid motion the loops give the link included).
+    held : (k, 6F) combinations of frame motions the loops hold at zero.
+    """
+    from pipeline.dynamics.bodies import frame_views
+    from pipeline.kinematics import build_mechanism, evaluate_tree
+    from pipeline.kinematics.closure import closure_jacobian
+    from pipeline.kinematics.links import link_from_frames
+
+    mech = machine.mechanism
+    red = machine.parts[name].reduced
+    names = frame_motions(red)[0]
+    F = len(names)
+    # one coordinate per motion of each stored frame (the reference does not move)
+    unit = []
+    for f in red.frames:
+        phi, psi = np.zeros((6 * F, 3)), np.zeros((6 * F, 3))
+        if f.name in names:
+            i = names.index(f.name)
+            phi[6 * i:6 * i + 3] = np.eye(3)
+            psi[6 * i + 3:6 * i + 6] = np.eye(3)
+        unit.append(FrameModes(f.name, f.pose, phi, psi, f.kind))
+    probe = replace(red, frames=tuple(unit))
+    where = wf.where("links", name, "frames")
+    li = mech.link_index(name)
+    # the workflow's own frames on the link, fixed on a stored one: their local pose
+    posed = {f.name: f.pose for f in mech.links[li].frames}
+    extra = {k: (v.on, np.linalg.solve(red.frame(v.on).pose, posed[k]))
+             for k, v in wf.spec.links[name].frames.items()}
+    views = frame_views(probe, range(6 * F), plane, False, extra, where)
+    links = list(mech.links)
+    links[li] = link_from_frames(name, views)
+    probe_mech = build_mechanism(links, mech.joints)
+    q = np.zeros(probe_mech.n)
+    for k, c in enumerate(probe_mech.coordinates):
+        if c in mech.coordinates:
+            q[k] = machine.q0[mech.coordinates.index(c)]
+    own = np.asarray(probe_mech.modal_index[li], dtype=int)
+    driven = set(probe_mech.indices(list(machine.system.drivers))) if \
+        machine.system.drivers else set()
+    others = [k for k in range(probe_mech.n) if k not in set(own) | driven
+              and k not in set(probe_mech.modal_coordinates)]
+    J = closure_jacobian(probe_mech, q)[1] if probe_mech.table.loop_slot else \
+        np.zeros((0, probe_mech.n))
+    Jo, B = J[:, others], J[:, own]
+    take_up = np.linalg.pinv(Jo, rcond=1e-10) @ B if Jo.size else np.zeros((len(others), 6 * F))
+    held = B - Jo @ take_up if Jo.size else B
+    tree = evaluate_tree(probe_mech, q)
+    A, dA = tree.A[li], tree.dA[li]
+    rows = []
+    by_name = {v.name: v for v in views}
+    for n in sorted(loaded_frames(wf, mech, name), key=list(by_name).index):
+        view = by_name[n]  # a stored frame, or one the workflow fixes on a stored frame
+        p = np.append(view.pose[:3, 3], 1.0)
+        W = A[:3, :3] @ view.phi.T  # its own motion per unit frame motion, ground axes
+        W -= (dA[others] @ p)[:, :3].T @ take_up  # the rigid motion the loops give it
+        Wb = A[:3, :3].T @ W  # read along the body axes
+        rows += [(n, d, Wb[DIRECTIONS.index(d)]) for d in _PLANE_DIRECTIONS[plane]]
+    return rows, held, names
+
+
+def loaded_frames(wf, mech, name: str) -> set[str]:
+    """Frames of link ``name`` that a joint or a force element acts at."""
+    out = {fr for j in mech.joints for ln, fr in ((j.parent, j.parent_frame),
+                                                  (j.child, j.child_frame)) if ln == name}
+    for f in wf.spec.forces:
+        for key in MARKER_FIELDS:
+            at = (f.model_extra or {}).get(key)
+            if isinstance(at, str) and at.startswith(f"{name}."):
+                out.add(at.split(".", 1)[1])
+    return out
