@@ -50,7 +50,7 @@ def simulate(system, q0, qd0, t_span, t_eval=None, method: str = "DOP853", rtol:
              max_step: float = np.inf, step: float | None = None,
              rho_inf: float = 0.8, formulation: str = "auto",
              max_steps: int = 1_000_000, max_wall: float | None = None,
-             limits: Limits | None = None) -> SimulationResult:
+             limits: Limits | None = None, error_estimate: bool = True) -> SimulationResult:
     """Transient dynamics of ``system`` from (q0, qd0) over ``t_span``.
 
     Parameters
@@ -76,6 +76,11 @@ def simulate(system, q0, qd0, t_span, t_eval=None, method: str = "DOP853", rtol:
     max_steps, max_wall : budgets (steps; wall-clock seconds); a run that exhausts one stops
         with its partial history.
     limits : thresholds of the trust checks (default :class:`Limits()`).
+    error_estimate : a fixed-step ``generalized_alpha`` run in the DAE formulation is run
+        again at twice the step to estimate its error against rtol/atol
+        (:mod:`pipeline.solver.step_error`; about half the run's cost again). False skips
+        it (a timing comparison with a code that does not estimate): the verdict then says
+        nothing of the integration error.
 
     Returns
     -------
@@ -133,7 +138,8 @@ def simulate(system, q0, qd0, t_span, t_eval=None, method: str = "DOP853", rtol:
             from pipeline.solver.dae import run_dae
 
             r = run_dae(system, q0, qd0, t0, t1, te, rtol=rtol, atol=atol, step=step,
-                        rho_inf=rho_inf, max_step=max_step, progress=progress, **budget)
+                        rho_inf=rho_inf, max_step=max_step, progress=progress,
+                        estimate=error_estimate, **budget)
         else:
             from pipeline.solver.projected import run_projected
 

@@ -11,7 +11,14 @@ adds a warning naming the quantity, the time and the figure, and turns an "ok" r
 * deformation range: the reduced links are linear models; the largest elastic displacement
   of a link's frames (and its mass-weighted RMS displacement) relative to the link's size
   below ``deformation``, the largest elastic frame rotation below ``rotation`` rad;
-* step size: the smallest accepted step above ``min_step`` times the span.
+* step size: the smallest accepted step above ``min_step`` times the span;
+* integration error: a fixed-step run's error, estimated by running it again at twice the
+  step (:mod:`pipeline.solver.step_error`), within the tolerance the user gave (rtol, atol);
+* physics left out: a flexible link reduced without geometric stiffening (linear modes)
+  that spins at Omega with Omega^2 / omega_1^2 above ``spin`` (omega_1 its lowest kept
+  frequency): centrifugal stiffening then moves omega_1^2 by about that share (a
+  cantilever's flapwise mode: omega^2 + 1.19 Omega^2), and a linear model spun past
+  omega_1 diverges.
 
 Examples
 --------
@@ -43,9 +50,10 @@ class Limits:
     deformation: float = 0.10
     rotation: float = 0.15
     min_step: float = 1e-9
+    spin: float = 0.05
 
     def __post_init__(self):
-        for k in ("energy", "closure", "deformation", "rotation", "min_step"):
+        for k in ("energy", "closure", "deformation", "rotation", "min_step", "spin"):
             v = getattr(self, k)
             if not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
                 raise ConfigError(f"limits: {k}: expected a number > 0, got {v!r}")
@@ -154,6 +162,55 @@ def _deformation(system, r: SimulationResult, lim: Limits) -> list[str]:
     return out
 
 
+def _spin(system, r: SimulationResult, lim: Limits, samples: int = 200) -> list[str]:
+    """Links with linear modes that spin fast enough for centrifugal stiffening to matter."""
+    from pipeline.kinematics import evaluate_tree
+
+    mech = system.mechanism
+    todo = [(name, body) for name, body in system.bodies.items()
+            if body.n_modes and not body.second_order_moments.size]
+    if not todo or not r.t.size:
+        return []
+    picks = np.unique(np.linspace(0, r.t.size - 1, min(samples, r.t.size)).round().astype(int))
+    spin2 = {name: np.zeros(picks.size) for name, _ in todo}
+    for j, k in enumerate(picks):
+        if not (np.all(np.isfinite(r.q[k])) and np.all(np.isfinite(r.qd[k]))):
+            continue
+        tree = evaluate_tree(mech, r.q[k], r.qd[k], derivatives=False)
+        for name, _ in todo:
+            li = mech.link_index(name)
+            W = tree.Ad[li, :3, :3] @ tree.A[li, :3, :3].T  # skew(omega), ground axes
+            spin2[name][j] = 0.25 * ((W[2, 1] - W[1, 2]) ** 2 + (W[0, 2] - W[2, 0]) ** 2
+                                     + (W[1, 0] - W[0, 1]) ** 2)
+    out = []
+    for name, body in todo:
+        Mee = np.einsum("abii->ab", body.Cpp[:, :, :3, :3])
+        w1 = float(np.min(np.linalg.eigvals(np.linalg.solve(Mee, body.stiffness)).real))
+        j = int(np.argmax(spin2[name]))
+        ratio = spin2[name][j] / w1 if w1 > 0 else np.inf
+        if ratio > lim.spin:
+            out.append(f"link '{name}' spins at up to {np.sqrt(spin2[name][j]):.4g} rad/s "
+                       f"(t = {r.t[picks[j]]:.6g} s), Omega^2 = {ratio:.3g} x its lowest "
+                       f"kept omega^2 ({np.sqrt(w1) / (2 * np.pi):.4g} Hz): centrifugal "
+                       f"stiffening moves that frequency by the order of {100 * ratio:.3g} % "
+                       f"and the model leaves it out (limit {lim.spin:g}); reduce the link "
+                       f"with geometric stiffening (links.{name}.geometric_stiffening: true)")
+    return out
+
+
+def _step_error(r: SimulationResult) -> list[str]:
+    """A fixed-step run whose estimated error (:mod:`pipeline.solver.step_error`) exceeds
+    the tolerance the user gave."""
+    ratio = (r.step_stats or {}).get("error_ratio")
+    if ratio is None or ratio <= 1.0:
+        return []
+    h = r.step_stats.get("h_max", 0.0)
+    return [(f"the fixed step {h:.3g} s gives an estimated error of {ratio:.3g} x the "
+             f"tolerance (rtol, atol), largest in {r.step_stats['error_coordinate']} at "
+             f"t = {r.step_stats['error_time']:.4g} s (the run again at twice the step); "
+             f"about {h / ratio:.2g} s would meet it, or omit the step for error control")]
+
+
 def _steps(r: SimulationResult, lim: Limits, span: float) -> list[str]:
     hmin = r.step_stats.get("h_min") if r.step_stats else None
     if hmin and r.n_steps and hmin < lim.min_step * span:
@@ -167,7 +224,7 @@ def check(system, r: SimulationResult, limits: Limits = Limits(),
     """The warnings of every check that trips on ``r`` (empty: all hold)."""
     span = (t_span[1] - t_span[0]) if t_span else (float(r.t[-1] - r.t[0]) if r.t.size else 1.0)
     return tuple(_energy(r, limits) + _closure(r, limits) + _deformation(system, r, limits)
-                 + _steps(r, limits, span))
+                 + _spin(system, r, limits) + _step_error(r) + _steps(r, limits, span))
 
 
 def judge(system, r: SimulationResult, limits: Limits = Limits(),

@@ -131,6 +131,7 @@ def _ga_profile(system, q0, step, t1=2.0):
     t = np.linspace(0.0, t1, round(t1 / step) + 1)
     pr.enable()
     simulate(system, q0, np.zeros_like(q0), (0.0, t1), t, method="generalized_alpha",
+             error_estimate=False,
              step=step, rho_inf=GA_RHO, rtol=GA_RTOL, atol=GA_ATOL, progress=False)
     pr.disable()
     st = pstats.Stats(pr)
@@ -157,7 +158,7 @@ def test_bench_loader_generalized_alpha_full_lift(tmp_path):
     q0 = st.q
     # warm the compiled kernels (numba compiles on first use, then loads from its cache)
     simulate(system, q0, np.zeros_like(q0), (0.0, 0.02), [0.0, 0.02],
-             method="generalized_alpha", step=0.01, progress=False)
+             method="generalized_alpha", error_estimate=False, step=0.01, progress=False)
     t_ref = np.linspace(0.0, REF_END, round(REF_END * 100) + 1)
     # max_step: DOP853's own first step on this stiff system is long enough for its trial
     # stages to close the loops on another assembly branch (README, limits)
@@ -173,7 +174,8 @@ def test_bench_loader_generalized_alpha_full_lift(tmp_path):
         walls, r = [], None
         for _ in range(REPEATS):
             r = simulate(system, q0, np.zeros_like(q0), (0.0, T_LIFT), t,
-                         method="generalized_alpha", step=step, rho_inf=GA_RHO, rtol=GA_RTOL,
+                         method="generalized_alpha",
+                         error_estimate=False, step=step, rho_inf=GA_RHO, rtol=GA_RTOL,
                          atol=GA_ATOL, progress=False)
             assert r.success, r.message
             walls.append(r.timings["total"])

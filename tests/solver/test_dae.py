@@ -18,6 +18,13 @@ import parallelogram as P
 from pipeline.solver import simulate
 
 
+def only_its_step_error(r) -> bool:
+    """A fixed-step run asked for a tolerance far below what its step gives (1e-10 here, to
+    keep Newton's own errors out of a convergence study) is "suspect" by its estimated
+    error alone: every other check holds."""
+    return r.verdict == "suspect" and all(w.startswith("the fixed step") for w in r.warnings)
+
+
 def _parallelogram_error(redundant, t_end, **kw):
     s = P.pipeline_model(redundant)
     q0, qd0 = P.initial_state(s)
@@ -37,7 +44,7 @@ def test_index3_passes_singular_positions_at_second_order(redundant):
     for h in (2e-3, 1e-3, 5e-4):
         r, err, theta = _parallelogram_error(redundant, 3.0, method="generalized_alpha",
                                              step=h, rtol=1e-10, atol=1e-12)
-        assert r.verdict == "ok", r.report
+        assert only_its_step_error(r), r.report
         assert r.closure_residual.max() < 1e-10
         errors.append(err)
     assert P.singular_passages(theta) >= 4
@@ -55,7 +62,7 @@ def test_index3_parallelogram_ten_seconds_converges():
     for h in (1e-3, 5e-4, 2.5e-4):
         r, err, theta = _parallelogram_error(True, 10.0, method="generalized_alpha", step=h,
                                              rtol=1e-10, atol=1e-12)
-        assert r.verdict == "ok", r.report
+        assert only_its_step_error(r), r.report
         errors.append(err)
     assert P.singular_passages(theta) >= 12
     rates = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
@@ -156,5 +163,5 @@ def test_andrews_loose_tolerances_stay_on_branch_or_are_flagged(andrews_referenc
 def test_andrews_index3_fixed_step(andrews_reference):
     te, q = andrews_reference
     r, angles = _andrews(te, method="generalized_alpha", step=1e-5, rtol=1e-10, atol=1e-12)
-    assert r.verdict == "ok", r.report
+    assert only_its_step_error(r), r.report
     assert np.abs(angles - q).max() < 2e-4
