@@ -33,7 +33,6 @@ from pipeline.workflow.schema import MARKER_FIELDS, inertia_matrix
 from pipeline.workflow.yaml_io import _yaml_path, error_lines, error_message, load_yaml
 
 
-
 @dataclass(frozen=True)
 class FlexPart:
     """A reduced link as used in the machine: the artifact and the kept mode indices."""
