@@ -32,7 +32,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {r['case']:<40} {r['status']:<8} {r['seconds']:7.2f} s  {outs}")
     for link, rec in res.recommendation.items():
         if rec["recommended"] is None:
-            print(f"  {link}: no recommendation (no case finished)")
+            print(f"  {link}: no recommendation ({rec.get('why', 'no case finished')})")
             continue
         print(f"  {link}: {mode_text(rec['recommended'])} recommended (within "
               f"{100 * rec['tolerance']:g} % of {mode_text(rec['reference'])})")

@@ -282,7 +282,8 @@ def recommend(spec, cases: list[Case], folder: Path) -> dict[str, dict]:
     """Per link: the leanest kept-mode entry (in the study's order) whose every compared
     series stays within the tolerance (relative RMS difference over the common times) of
     the richest (the last), and the evidence: {"recommended": label, "reference": label,
-    "tolerance": tol, "evidence": {label: {series: relative}}}."""
+    "tolerance": tol, "evidence": {label: {series: relative}}}; without the richest case's
+    results, "recommended" is None and "why" says so."""
     t = spec.truncation
     out: dict[str, dict] = {}
     by_link: dict[str, list[Case]] = {}
@@ -291,9 +292,11 @@ def recommend(spec, cases: list[Case], folder: Path) -> dict[str, dict]:
             by_link.setdefault(c.link, []).append(c)
     for link, cs in by_link.items():
         ok = sorted((c for c in cs if _case_file(folder, c).is_file()), key=lambda c: c.order)
-        if not ok:
-            out[link] = {"recommended": None, "reference": None, "tolerance": t.tolerance,
-                         "evidence": {}}
+        richest = max(cs, key=lambda c: c.order)
+        if not ok or ok[-1] is not richest:  # no reference: a leaner case is no stand-in
+            out[link] = {"recommended": None, "reference": richest.modes,
+                         "tolerance": t.tolerance, "evidence": {},
+                         "why": f"the reference case ({richest.modes}) did not finish"}
             continue
         ref = ok[-1]
         ref_series = case_series(folder, ref)
