@@ -31,6 +31,9 @@ from pipeline.meshing.mesh_data import MeshData
 
 logger = logging.getLogger(__name__)
 
+#: Poisson's ratio above which a solid link is warned of volumetric locking
+NEARLY_INCOMPRESSIBLE = 0.49
+
 
 @dataclass(frozen=True)
 class MarkerRequest:
@@ -177,6 +180,13 @@ def _assemble(request: LinkRequest, mesh: MeshData) -> FemModel:
     where = f"link '{request.name}'"
     check_material(request.material, where)
     if mesh.kind == "solid":
+        if request.material.nu > NEARLY_INCOMPRESSIBLE:
+            logger.warning(
+                "%s: material.nu = %g is nearly incompressible: displacement-based P2 "
+                "tetrahedra lock volumetrically as nu -> 0.5 (deflections and frequencies come "
+                "out stiff), and the bulk stiffness swamps the round-off scale of the mode "
+                "checks; there is no mixed (u-p) formulation here: use nu <= %g",
+                where, request.material.nu, NEARLY_INCOMPRESSIBLE)
         model = assemble_solid(mesh, request.material, request.name)
     else:
         from pipeline.fem.beam import assemble_beam, sections_by_member

@@ -138,3 +138,25 @@ def test_stress_modes_turn_to_the_body_axes_as_tensors():
     back = np.einsum("ia,mnab,jb->mnij", R, voigt_to_tensor(Sb.astype(float)), R)
     np.testing.assert_allclose(back, voigt_to_tensor(S), rtol=0, atol=1e-6 * np.abs(S).max())
     np.testing.assert_allclose(von_mises(Sb), von_mises(S), rtol=1e-6)
+
+
+@pytest.mark.parametrize("nu, warned", [(0.3, False), (0.4999999, True)])
+def test_a_nearly_incompressible_solid_is_named_as_such(tmp_path, caplog, nu, warned):
+    """nu -> 0.5 locks P2 tetrahedra volumetrically and its bulk stiffness sets off the
+    round-off warning, which blamed the mesh (issue 24); the material is now named."""
+    import logging
+
+    from link_samples import write_bar
+
+    from pipeline.workflow.link_build import reduce_spec
+    from pipeline.workflow.link_spec import load_link_spec
+
+    path = write_bar(tmp_path, modes=2)
+    path.write_text(path.read_text().replace("nu: 0.3", f"nu: {nu}"))
+    with caplog.at_level(logging.WARNING, logger="pipeline"):
+        reduce_spec(load_link_spec(path), tmp_path, tmp_path / "links")
+    lines = [r.getMessage() for r in caplog.records if "nearly incompressible" in r.getMessage()]
+    assert bool(lines) is warned
+    if warned:
+        assert f"link 'bar': material.nu = {nu:g} is nearly incompressible" in lines[0]
+        assert "use nu <= 0.49" in lines[0]
