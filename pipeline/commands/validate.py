@@ -64,4 +64,7 @@ def machine_report(m) -> list[str]:
     e = energies(system, tree, m.q0, m.qd0)
     lines.append("initial energy: " + ", ".join(f"{k} {v:.6g} J" for k, v in e.items())
                  + f" (max |q'| {float(np.abs(m.qd0).max(initial=0.0)):.4g})")
-    return lines + [f"model warning: {w}" for w in m.model_warnings]
+    from pipeline.kinematics.joints import gimbal_locks
+
+    return (lines + [f"model warning: {w}" for w in m.model_warnings]
+            + [f"singular start: {w}" for w in gimbal_locks(mech, m.q0)])

@@ -256,3 +256,34 @@ class Joint:
     @property
     def kind(self) -> JointType:
         return JOINTS[self.type]
+
+
+#: |cos ry| below which a spherical or free joint's z-y-x angles are at gimbal lock
+GIMBAL_COS = 1e-6
+
+
+def gimbal_locks(mech, q) -> list[str]:
+    """One line per spherical or free joint whose z-y-x angles are at their singular set
+    (|ry| = 90 deg, where rz and rx turn about the same axis) at q (n,): a legal pose at
+    which the equations in these coordinates cannot be solved.
+
+    >>> from pipeline.kinematics import build_mechanism, rigid_link
+    >>> m = build_mechanism([rigid_link("ground"), rigid_link("b")],
+    ...                     [Joint("S", "spherical", "ground", "body", "b", "body")])
+    >>> gimbal_locks(m, [0.0, -np.pi / 2, 0.0])[0][:41]
+    "joint 'S' (spherical) is at ry = -90 deg,"
+    >>> gimbal_locks(m, [0.0, 0.5, 0.0])
+    []
+    """
+    q = np.asarray(q, dtype=float)
+    out = []
+    for j in mech.joints:
+        if j.type not in ("spherical", "free"):
+            continue
+        ry = float(q[mech.index(f"{j.name}.ry")])
+        if abs(np.cos(ry)) < GIMBAL_COS:
+            out.append(f"joint '{j.name}' ({j.type}) is at ry = {np.degrees(ry):.4g} deg, its "
+                       "angles' singular set (gimbal lock: rz and rx turn about one axis); "
+                       "assemble its two frames in the mid-range orientation of the motion "
+                       "(the singular set is then 90 deg away)")
+    return out

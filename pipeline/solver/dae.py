@@ -24,6 +24,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from pipeline.core.errors import PipelineError
 from pipeline.core.progress import progress_counter
 from pipeline.solver.constrained import ConstrainedSystem
 from pipeline.solver.index3_compiled import stepper as make_stepper
@@ -61,7 +62,17 @@ def run_dae(system, q0, qd0, t0, t1, te, *, rtol, atol, step=None, rho_inf=0.8,
     q, v = cs.with_drivers(t0, q0, qd0)
     grid = OutputGrid(cs, te, getattr(stepper, "output", None))
     with progress_counter(te.size, "simulating", progress) as advance:
-        msg = run.march(stepper, stepper.start(t0, q, v), grid, advance)
+        try:
+            msg = run.march(stepper, stepper.start(t0, q, v), grid, advance)
+        except (PipelineError, np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
+            # a state the equations cannot be solved at (a singular start): the history
+            # so far, and why
+            from pipeline.kinematics.joints import gimbal_locks
+
+            q_fail = grid.rows[-1][1] if grid.rows else q
+            msg = (f"integration failed after t = {grid.rows[-1][0] if grid.rows else t0:.6g}"
+                   f" s: {exc}" + "".join(f"; {w}" for w in gimbal_locks(system.mechanism,
+                                                                        q_fail)))
     total = time.perf_counter() - tic
     if msg:
         logger.warning("simulation: %s", msg)

@@ -243,7 +243,11 @@ def run_projected(system, q0, qd0, t0, t1, te, solver_cls, name, *, rtol, atol,
                     solver = make(solver.t, y_new, first_step=min(h_next, t1 - solver.t),
                                   max_step=max_step if capped <= 1 else h)
         except (PipelineError, np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
-            msg = f"integration failed at t = {solver.t:.6g} s: {exc}"
+            from pipeline.kinematics.joints import gimbal_locks
+
+            q_fail = f.full(solver.t, solver.y)[0]
+            msg = (f"integration failed at t = {solver.t:.6g} s: {exc}"
+                   + "".join(f"; {w}" for w in gimbal_locks(system.mechanism, q_fail)))
     total = time.perf_counter() - tic
     if msg:
         logger.warning("simulation: %s", msg)
