@@ -79,10 +79,9 @@ def machine_conditions(wf, machine, name: str, plane: str | None):
     configuration, drivers held and the other links rigid.
 
     rows : (frame, direction, w) for every frame a joint or a force element loads
-        (:func:`loaded_frames`; a workflow frame moves with the stored frame it is fixed on),
-        w (6F,)
-        its ground displacement along the body axis ``direction`` per unit motion of the
-        link's frames (the rigid motion the loops give the link included).
+        (:func:`loaded_frames`; a workflow frame moves with the stored frame it is fixed
+        on); w (6F,) is its ground displacement along the body axis ``direction`` per unit
+        motion of the link's frames, the rigid motion the loops give the link included.
     held : (k, 6F) combinations of frame motions the loops hold at zero.
     """
     from pipeline.dynamics.bodies import frame_views
