@@ -74,7 +74,8 @@ def run_case(base: str, quick: bool, overrides: dict, label: str, analyses, cach
             derived[o["name"]] = _reduce(v, o["reduce"])
         worst = [r.verdict for r in results.values()]
         status = "partial" if "partial" in worst else "suspect" if "suspect" in worst else "ok"
-        message = "; ".join(f"{n}: {r.message}" for n, r in results.items() if r.verdict != "ok")
+        message = "; ".join(f"{n}: {'; '.join((r.message, *r.warnings))}"
+                            for n, r in results.items() if r.verdict != "ok")
     except PipelineError as exc:
         return {"status": "error", "message": str(exc), "seconds": time.perf_counter() - t0,
                 "series": {}, "outputs": {}}

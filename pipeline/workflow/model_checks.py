@@ -46,24 +46,26 @@ def basis_warnings(wf, machine) -> tuple[str, ...]:
     largest over its flexible links of their loaded frames' compliance in the machine and
     of their frames' compliance held at the reference only (a connecting rod loaded at its
     pins only along its axis still bends under its own inertia). A stiff link's far pin
-    that its loop holds fast is then no finding.
+    that its loop holds fast is then no finding. A flexible link kept rigid (no modes: a
+    modelling choice, the rigid case of a mode study) is not checked, but its full FE
+    compliance still sets how soft the machine is.
     """
-    checked = []
+    checked, scale = [], 0.0
     for name, part in machine.parts.items():
         entry = wf.spec.links[name]
-        if entry.type != "flexible" or not part.modes or frame_motions(part.reduced) is None:
+        if entry.type != "flexible" or frame_motions(part.reduced) is None:
             continue
         directions = _PLANE_DIRECTIONS[getattr(entry, "plane", None)]
         rows, held, _ = machine_conditions(wf, machine, name, getattr(entry, "plane", None))
         _, G, K, C = frame_motions(part.reduced, part.modes)
-        alone = max((c.full for c in static_coverage(part.reduced, part.modes, directions)),
+        alone = max((c.full for c in static_coverage(part.reduced, None, directions)),
                     default=0.0)
-        checked.append((name, part, G, K, C, rows, held,
-                        max([alone] + [c.full for c in constrained_coverage(G, K, C, rows, held)
-                                       if not c.direction.startswith("r")])))
-    scale = max((c[-1] for c in checked), default=0.0)
+        scale = max([scale, alone] + [c.full for c in constrained_coverage(G, K, C, rows, held)
+                                      if not c.direction.startswith("r")])
+        if part.modes:
+            checked.append((name, part, G, K, C, rows, held))
     out: list[str] = []
-    for name, part, G, K, C, rows, held, _ in checked:
+    for name, part, G, K, C, rows, held in checked:
         cover = constrained_coverage(G, K, C, rows, held, scale)
         constraint = sum(part.reduced.mode_kinds[a] == "constraint" for a in part.modes)
         remedy = (f"keep more of its modes (links.{name}.modes)" if constraint else

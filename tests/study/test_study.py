@@ -230,10 +230,17 @@ def test_cli_design_study_prints_the_table(tmp_path, links, capsys):
 def test_loader_study_names_a_count_per_flexible_link(tmp_path, links):
     """studies/loader_modes.yaml: every flexible link gets a count, with evidence; the lift
     arm (Craig-Bampton, 12 in-plane modes) needs 6 (3 are 2.8 % off on its tip
-    deflection: the static shape needs the constraint modes), the lift links none."""
+    deflection: the static shape needs the constraint modes), the lift links none. The
+    model check agrees: the arm's 1-3 mode cases are suspect, as carrying too little of its
+    pins' static compliance; the rigid arm (a modelling choice) and the rest are ok."""
     res = run_study(ROOT / "studies" / "loader_modes.yaml", out_root=tmp_path / "out",
                     workers=2, cache_dir=links)
-    assert all(r["status"] == "ok" for r in res.rows)
+    lean = {f"lift_arm: {n} modes" for n in (1, 2, 3)}
+    for r in res.rows:
+        if r["case"] in lean:
+            assert r["status"] == "suspect" and "kept modes carry only" in r["message"], r
+        else:
+            assert r["status"] == "ok", r
     rec = res.recommendation
     assert set(rec) == {"lower_link", "upper_link", "lift_arm"}
     assert rec["lift_arm"]["recommended"] == "count=6"
