@@ -21,7 +21,7 @@ Nothing here reads the FE model: the checks run on the artifact's arrays.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -127,12 +127,34 @@ def constrained_coverage(G: np.ndarray, K: np.ndarray, C: np.ndarray, rows,
     link's far pin) has little worth carrying.
     """
     Ga, Ka = attachment_basis(C)
-    full = [ritz_compliance(Ga, Ka, w, held) for _, _, w in rows]
-    top = scale if scale is not None else max(
-        (f for f, (_, d, _) in zip(full, rows) if not d.startswith("r")), default=0.0)
-    return [Coverage(frame, d, f, ritz_compliance(G, K, w, held),
-                     relevant=f > 0 and (d.startswith("r") or f >= RELEVANT_SHARE * top))
-            for f, (frame, d, w) in zip(full, rows)]
+    covers = [Coverage(frame, d, ritz_compliance(Ga, Ka, w, held),
+                       ritz_compliance(G, K, w, held), relevant=False)
+              for frame, d, w in rows]
+    return with_relevance(covers, softest(covers) if scale is None else scale)
+
+
+def softest(covers: list[Coverage]) -> float:
+    """The largest translational full compliance among ``covers``, m/N (0 if none)."""
+    return max((c.full for c in covers if not c.direction.startswith("r")), default=0.0)
+
+
+def with_relevance(covers: list[Coverage], scale: float) -> list[Coverage]:
+    """``covers`` marked relevant where the full compliance is at least
+    :data:`RELEVANT_SHARE` of ``scale`` (rotations: wherever it is not zero)."""
+    return [replace(c, relevant=c.full > 0 and (c.direction.startswith("r") or
+                                                c.full >= RELEVANT_SHARE * scale))
+            for c in covers]
+
+
+def basis_remedy(constraint_modes: bool, modes_key: str = "modes.count") -> str:
+    """What to do about a basis that misses compliance: more modes, or (a basis without
+    static constraint modes) Craig-Bampton modes; ``modes_key`` names where the count is
+    set."""
+    if constraint_modes:
+        return f"keep more of its modes ({modes_key})"
+    return (f"reduce it with Craig-Bampton modes (modes: {{craig_bampton: true}} in its link "
+            f"spec), whose static modes carry the interfaces' loads, or keep more modes "
+            f"({modes_key})")
 
 
 def attachment_basis(C: np.ndarray, rtol: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
@@ -205,10 +227,7 @@ def coverage_report(link, modes=None, directions=DIRECTIONS[:3]) -> dict:
     compliance, 0..1), "warnings": [...]} (empty rows without stored compliance).
     """
     rows = static_coverage(link, modes, directions)
-    remedy = ("keep more modes (modes.count)" if "constraint" in link.mode_kinds else
-              "keep more modes (modes.count), or reduce it with Craig-Bampton modes "
-              "(modes: {craig_bampton: true}), whose static modes carry every interface's "
-              "loads")
     return {"rows": [{"frame": c.frame, "direction": c.direction, "share": c.ratio,
                       "relevant": c.relevant} for c in rows],
-            "warnings": coverage_warnings(link.name, rows, remedy)}
+            "warnings": coverage_warnings(link.name, rows,
+                                          basis_remedy("constraint" in link.mode_kinds))}

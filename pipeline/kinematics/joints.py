@@ -287,3 +287,9 @@ def gimbal_locks(mech, q) -> list[str]:
                        "assemble its two frames in the mid-range orientation of the motion "
                        "(the singular set is then 90 deg away)")
     return out
+
+
+def gimbal_lock_note(mech, q) -> str:
+    """"; <line>" for each joint of :func:`gimbal_locks` at q: what a failure message at a
+    singular start adds ("" where none is)."""
+    return "".join(f"; {w}" for w in gimbal_locks(mech, q))

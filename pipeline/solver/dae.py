@@ -67,12 +67,11 @@ def run_dae(system, q0, qd0, t0, t1, te, *, rtol, atol, step=None, rho_inf=0.8,
         except (PipelineError, np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
             # a state the equations cannot be solved at (a singular start): the history
             # so far, and why
-            from pipeline.kinematics.joints import gimbal_locks
+            from pipeline.kinematics.joints import gimbal_lock_note
 
             q_fail = grid.rows[-1][1] if grid.rows else q
             msg = (f"integration failed after t = {grid.rows[-1][0] if grid.rows else t0:.6g}"
-                   f" s: {exc}" + "".join(f"; {w}" for w in gimbal_locks(system.mechanism,
-                                                                        q_fail)))
+                   f" s: {exc}" + gimbal_lock_note(system.mechanism, q_fail))
     total = time.perf_counter() - tic
     if msg:
         logger.warning("simulation: %s", msg)

@@ -293,12 +293,11 @@ def run(system, q0, qd0, t0, t1, te, solver_cls, name, rtol, atol, progress,
     # ValueError: scipy's implicit methods refuse a non-finite Jacobian (a diverging trial
     # state); the run ends there with its history, like any other integrator failure
     except (PipelineError, np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
-        from pipeline.kinematics.joints import gimbal_locks
+        from pipeline.kinematics.joints import gimbal_lock_note
 
-        locks = gimbal_locks(system.mechanism, out[-1][1] if out else q0)
         msg = (f"integration failed at t = {rhs.t_last:.6g} s (last output t = "
                f"{out[-1][0] if out else t0:.6g} s): {exc}"
-               + "".join(f"; {w}" for w in locks))
+               + gimbal_lock_note(system.mechanism, out[-1][1] if out else q0))
     total = time.perf_counter() - tic
     if msg:
         logger.warning("simulation: %s", msg)

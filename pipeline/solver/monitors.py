@@ -146,8 +146,8 @@ def _deformation(system, r: SimulationResult, lim: Limits) -> list[str]:
         th = max((np.linalg.norm(eta @ f.psi, axis=1) for f in frames),
                  key=lambda x: x.max(initial=0.0))
         body = system.bodies[name]
-        Mee = np.einsum("abii->ab", body.Cpp[:, :, :3, :3])
-        rms = np.sqrt(np.maximum(np.einsum("ta,ab,tb->t", eta, Mee, eta), 0.0) / body.C[3, 3])
+        rms = np.sqrt(np.maximum(np.einsum("ta,ab,tb->t", eta, _modal_mass(body), eta), 0.0)
+                      / body.C[3, 3])
         u = np.maximum(u, rms)
         if not np.all(np.isfinite(u)) or u.max() > lim.deformation * size:
             k = int(np.nanargmax(np.where(np.isfinite(u), u, np.inf)))
@@ -162,9 +162,15 @@ def _deformation(system, r: SimulationResult, lim: Limits) -> list[str]:
     return out
 
 
+def _modal_mass(body) -> np.ndarray:
+    """(m, m) translational modal mass tr C''_ab of a flexible body, kg per modal unit^2."""
+    return np.einsum("abii->ab", body.Cpp[:, :, :3, :3])
+
+
 def _spin(system, r: SimulationResult, lim: Limits, samples: int = 200) -> list[str]:
     """Links with linear modes that spin fast enough for centrifugal stiffening to matter."""
     from pipeline.kinematics import evaluate_tree
+    from pipeline.kinematics.rotations import vee
 
     mech = system.mechanism
     todo = [(name, body) for name, body in system.bodies.items()
@@ -179,13 +185,12 @@ def _spin(system, r: SimulationResult, lim: Limits, samples: int = 200) -> list[
         tree = evaluate_tree(mech, r.q[k], r.qd[k], derivatives=False)
         for name, _ in todo:
             li = mech.link_index(name)
-            W = tree.Ad[li, :3, :3] @ tree.A[li, :3, :3].T  # skew(omega), ground axes
-            spin2[name][j] = 0.25 * ((W[2, 1] - W[1, 2]) ** 2 + (W[0, 2] - W[2, 0]) ** 2
-                                     + (W[1, 0] - W[0, 1]) ** 2)
+            omega = vee(tree.Ad[li, :3, :3] @ tree.A[li, :3, :3].T)  # ground axes
+            spin2[name][j] = float(omega @ omega)
     out = []
     for name, body in todo:
-        Mee = np.einsum("abii->ab", body.Cpp[:, :, :3, :3])
-        w1 = float(np.min(np.linalg.eigvals(np.linalg.solve(Mee, body.stiffness)).real))
+        w1 = float(np.min(np.linalg.eigvals(np.linalg.solve(_modal_mass(body),
+                                                             body.stiffness)).real))
         j = int(np.argmax(spin2[name]))
         ratio = spin2[name][j] / w1 if w1 > 0 else np.inf
         if ratio > lim.spin:

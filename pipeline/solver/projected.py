@@ -243,11 +243,10 @@ def run_projected(system, q0, qd0, t0, t1, te, solver_cls, name, *, rtol, atol,
                     solver = make(solver.t, y_new, first_step=min(h_next, t1 - solver.t),
                                   max_step=max_step if capped <= 1 else h)
         except (PipelineError, np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
-            from pipeline.kinematics.joints import gimbal_locks
+            from pipeline.kinematics.joints import gimbal_lock_note
 
-            q_fail = f.full(solver.t, solver.y)[0]
             msg = (f"integration failed at t = {solver.t:.6g} s: {exc}"
-                   + "".join(f"; {w}" for w in gimbal_locks(system.mechanism, q_fail)))
+                   + gimbal_lock_note(system.mechanism, f.full(solver.t, solver.y)[0]))
     total = time.perf_counter() - tic
     if msg:
         logger.warning("simulation: %s", msg)
@@ -256,11 +255,17 @@ def run_projected(system, q0, qd0, t0, t1, te, solver_cls, name, *, rtol, atol,
     return grid.result(msg, steps, f.count, total, name, stats)
 
 
+def _jacobian_singular_values(cs: ConstrainedSystem, f: _Index1, t, y) -> np.ndarray:
+    """Singular values of the closure Jacobian's integrated columns at (t, y), largest
+    first."""
+    return np.linalg.svd(cs.evaluate(t, *f.full(t, y)).C[:, cs.U], compute_uv=False)
+
+
 def _rank(cs: ConstrainedSystem, f: _Index1, t, y) -> int:
     """Rank of the closure Jacobian's integrated columns at (t, y) (0 without loops)."""
     if not cs.m:
         return 0
-    s = np.linalg.svd(cs.evaluate(t, *f.full(t, y)).C[:, cs.U], compute_uv=False)
+    s = _jacobian_singular_values(cs, f, t, y)
     return int(np.sum(s > 1e-8 * s[0])) if s.size and s[0] > 0 else 0
 
 
@@ -268,7 +273,7 @@ def _near_singular(cs: ConstrainedSystem, f: _Index1, t, y, rank0: int) -> bool:
     """The Jacobian's singular value number ``rank0`` is below :data:`NEAR_SINGULAR` of
     its largest: a singular position is near (redundant rows, lost everywhere, do not
     count)."""
-    s = np.linalg.svd(cs.evaluate(t, *f.full(t, y)).C[:, cs.U], compute_uv=False)
+    s = _jacobian_singular_values(cs, f, t, y)
     return s.size >= rank0 and s[rank0 - 1] < NEAR_SINGULAR * s[0]
 
 

@@ -24,10 +24,12 @@ import numpy as np
 
 from pipeline.invariants.adequacy import (
     DIRECTIONS,
+    basis_remedy,
     constrained_coverage,
     coverage_warnings,
     frame_motions,
-    static_coverage,
+    softest,
+    with_relevance,
 )
 from pipeline.invariants.reduced_link import FrameModes
 from pipeline.workflow.schema import MARKER_FIELDS
@@ -55,24 +57,22 @@ def basis_warnings(wf, machine) -> tuple[str, ...]:
         entry = wf.spec.links[name]
         if entry.type != "flexible" or frame_motions(part.reduced) is None:
             continue
-        directions = _PLANE_DIRECTIONS[getattr(entry, "plane", None)]
-        rows, held, _ = machine_conditions(wf, machine, name, getattr(entry, "plane", None))
+        plane = getattr(entry, "plane", None)
+        rows, held, _ = machine_conditions(wf, machine, name, plane)
         _, G, K, C = frame_motions(part.reduced, part.modes)
-        alone = max((c.full for c in static_coverage(part.reduced, None, directions)),
-                    default=0.0)
-        scale = max([scale, alone] + [c.full for c in constrained_coverage(G, K, C, rows, held)
-                                      if not c.direction.startswith("r")])
+        cover = constrained_coverage(G, K, C, rows, held)
+        # held at its reference only, a frame's full compliance is C's diagonal entry
+        asked = [DIRECTIONS.index(d) for d in _PLANE_DIRECTIONS[plane]]
+        alone = max((C[k, k] for k in range(len(C)) if k % 6 in asked), default=0.0)
+        scale = max(scale, alone, softest(cover))
         if part.modes:
-            checked.append((name, part, G, K, C, rows, held))
+            checked.append((name, part, cover))
     out: list[str] = []
-    for name, part, G, K, C, rows, held in checked:
-        cover = constrained_coverage(G, K, C, rows, held, scale)
-        constraint = sum(part.reduced.mode_kinds[a] == "constraint" for a in part.modes)
-        remedy = (f"keep more of its modes (links.{name}.modes)" if constraint else
-                  f"reduce it with Craig-Bampton modes (modes: {{craig_bampton: true}} in "
-                  f"its link spec), whose static modes carry the interfaces' loads, or keep "
-                  f"more modes (links.{name}.modes)")
-        out += coverage_warnings(name, cover, remedy, "on the machine's supports")
+    for name, part, cover in checked:
+        constraint = any(part.reduced.mode_kinds[a] == "constraint" for a in part.modes)
+        out += coverage_warnings(name, with_relevance(cover, scale),
+                                 basis_remedy(constraint, f"links.{name}.modes"),
+                                 "on the machine's supports")
     return tuple(out)
 
 
