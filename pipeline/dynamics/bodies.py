@@ -17,13 +17,12 @@ import scipy.linalg as sla
 
 from pipeline.core.errors import ConfigError
 from pipeline.dynamics.system import BodyMass
+from pipeline.invariants.planar_modes import PLANES, link_mode_planes, without_plane_round_off
 from pipeline.kinematics.links import Link, link_from_frames
 
 __all__ = ["PLANES", "FrameView", "body_from_reduced", "frame_views", "in_plane_modes",
            "link_from_reduced", "modal_damping", "project_on_plane", "select_modes"]
 
-#: out-of-plane motion per plane of the body frame: (translation axis, rotation axes)
-PLANES = {"xy": (2, (0, 1)), "yz": (0, (1, 2)), "xz": (1, (0, 2))}
 
 
 def _plane(plane: str) -> tuple[int, tuple[int, int]]:
@@ -73,11 +72,8 @@ def project_on_plane(phi: np.ndarray, psi: np.ndarray, plane: str
     """(phi, psi) (m, 3) of a frame with their out-of-plane components set to zero: a planar
     loop cannot follow the residual out-of-plane motion of in-plane modes (its out-of-plane
     rows would lock them)."""
-    t_out, r_out = _plane(plane)
-    phi, psi = np.array(phi, dtype=float), np.array(psi, dtype=float)
-    phi[:, t_out] = 0.0
-    psi[:, list(r_out)] = 0.0
-    return phi, psi
+    _plane(plane)
+    return without_plane_round_off(phi, psi, ((plane,),) * len(phi))
 
 
 def select_modes(n_modes: int, modes: Sequence[int] | None, link: str) -> np.ndarray:
@@ -178,12 +174,16 @@ def frame_views(reduced, idx, plane: str | None = None, second_order: bool = Fal
     """
     where = f"link '{reduced.name}': frames" if where is None else where
     H = reduced.frame_hessians(idx) if second_order and len(idx) else None
+    # without a plane, each mode's own plane (an asymmetric mesh's round-off across it
+    # would let a planar loop's out-of-plane rows lock the mode)
+    planes = link_mode_planes(reduced, idx) if plane is None else ((),) * len(idx)
     views = {}
     for i, f in enumerate(reduced.frames):
-        phi, psi = np.array(f.phi)[list(idx)], np.array(f.psi)[list(idx)]
+        phi, psi = without_plane_round_off(np.array(f.phi)[list(idx)],
+                                           np.array(f.psi)[list(idx)], planes)
         if reduced.chord is not None and i == 0:
             psi = np.zeros_like(psi)
-        hess = None if H is None else H[i].copy()
+        hess = None if H is None else _without_pair_round_off(H[i].copy(), planes)
         views[f.name] = FrameView(f.name, np.array(f.pose, dtype=float), phi, psi, hess)
     for new, (on, local) in (extra or {}).items():
         if on not in views:
@@ -203,6 +203,16 @@ def frame_views(reduced, idx, plane: str | None = None, second_order: bool = Fal
             if v.hess is not None:
                 v.hess[..., _plane(plane)[0]] = 0.0
     return list(views.values())
+
+
+def _without_pair_round_off(hess: np.ndarray, planes) -> np.ndarray:
+    """A frame's second-order translations (k, k, 3) without the part across a plane both
+    modes of a pair move in (:func:`link_mode_planes`)."""
+    for a, pa in enumerate(planes):
+        for b, pb in enumerate(planes):
+            for plane in set(pa) & set(pb):
+                hess[a, b, PLANES[plane][0]] = 0.0
+    return hess
 
 
 def link_from_reduced(reduced, modes: Sequence[int] | None = None, name: str | None = None,

@@ -25,6 +25,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from pipeline.invariants.planar_modes import link_mode_planes, without_plane_round_off
+
 #: directions of a frame's six motions, body axes
 DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
 
@@ -78,15 +80,19 @@ def stored_compliance(link) -> tuple[tuple[str, ...], np.ndarray] | None:
 def frame_motions(link, modes=None) -> tuple[tuple[str, ...], np.ndarray, np.ndarray,
                                                np.ndarray] | None:
     """(names, G, K, C) of the frames with stored compliance: G (6F, m) each frame's
-    [translation; rotation] per kept mode (body axes), K (m, m) the kept modal stiffness,
-    C (6F, 6F) the full model's compliance; None without stored compliance."""
+    [translation; rotation] per kept mode (body axes; an in-plane mode without its mesh's
+    round-off across the plane, :mod:`pipeline.invariants.planar_modes`), K (m, m) the
+    kept modal stiffness, C (6F, 6F) the full model's compliance; None without stored
+    compliance."""
     stored = stored_compliance(link)
     if stored is None:
         return None
     names, C = stored
     idx = list(range(link.n_modes)) if modes is None else list(modes)
-    G = np.vstack([np.vstack([link.frame(n).phi[idx].T, link.frame(n).psi[idx].T])
-                   for n in names]) if names else np.zeros((0, len(idx)))
+    planes = link_mode_planes(link, idx)  # as the machine sees them (frame_views)
+    G = np.vstack([np.vstack([m.T for m in without_plane_round_off(
+        link.frame(n).phi[idx], link.frame(n).psi[idx], planes)])
+        for n in names]) if names else np.zeros((0, len(idx)))
     K = np.asarray(link.modal_stiffness, dtype=float)[np.ix_(idx, idx)]
     return names, G, K, C
 

@@ -35,8 +35,9 @@ from pipeline.kinematics.closure import closure, row_weights
 from pipeline.kinematics.failures import SingularConfigurationError
 from pipeline.kinematics.mechanism import Mechanism
 
-__all__ = ["RANK_RTOL", "ZERO_COLUMN", "DofReport", "Partition", "PassiveMotion", "dof_report",
-           "normalised_jacobian", "numerical_rank", "select_partition"]
+__all__ = ["RANK_RTOL", "ZERO_COLUMN", "DofReport", "HeldMode", "Partition", "PassiveMotion",
+           "dof_report", "held_modes", "normalised_jacobian", "numerical_rank",
+           "select_partition"]
 
 #: Relative singular-value threshold of the rank decisions.
 RANK_RTOL = 1e-8
@@ -292,6 +293,57 @@ def _passive(mech: Mechanism, tree, Nq: np.ndarray) -> tuple[PassiveMotion, ...]
             coords = tuple(mech.coordinates[i] for i in np.flatnonzero(np.abs(qd) > 1e-6 *
                                                                           np.abs(qd).max()))
             out.append(PassiveMotion(mech.links[l].name, coords, point, d))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class HeldMode:
+    """A combination of a link's modal coordinates the loops hold at zero.
+
+    ``coordinates`` are the link's modal coordinates in it (largest share first),
+    ``row`` the closure row that holds it (e.g. "L1 (cut 'T'): position z"), ``share``
+    the row's part in it (1: that row alone).
+    """
+
+    link: str
+    coordinates: tuple[str, ...]
+    row: str
+    share: float
+
+
+def held_modes(mech: Mechanism, q: np.ndarray, driven=()) -> tuple[HeldMode, ...]:
+    """The modal motions the loops hold at q (n,), drivers ``driven`` (names) held.
+
+    A flexible link's modal columns of the normalised closure Jacobian, less what the
+    joint coordinates can take up, span the rows no joint can follow: a motion of the
+    modes along them cannot happen, so those modes (or combinations) are dependent and
+    stay at zero (:func:`select_partition` makes them so). Each is named by its link, its
+    main coordinates and its main row. Round-off across a plane the modes move in is gone
+    before this (:mod:`pipeline.invariants.planar_modes`); what is left is a real hold.
+    """
+    if not mech.topology.loops or not mech.modal_coordinates.size:
+        return ()
+    q = np.asarray(q, dtype=float)
+    Jn, _ = normalised_jacobian(mech, closure(mech, q).J)
+    others = np.setdiff1d(np.arange(mech.n), np.union1d(mech.indices(list(driven)),
+                                                        mech.modal_coordinates)).astype(int)
+    Jo = Jn[:, others]
+    U = _null_vectors(Jo.T) if others.size else np.eye(Jn.shape[0])  # rows joints cannot follow
+    names = mech.row_names()
+    out = []
+    for link, idx in zip(mech.links, mech.modal_index):
+        if not len(idx):
+            continue
+        B = U.T @ Jn[:, idx]  # the modal columns on those rows
+        Ub, s, Vt = np.linalg.svd(B, full_matrices=False)
+        for k in np.flatnonzero(s > RANK_RTOL):
+            rows = U @ Ub[:, k]
+            v = np.abs(Vt[k])
+            order = np.argsort(-v)
+            coords = tuple(mech.coordinates[idx[i]] for i in order if v[i] >= 0.1 * v.max())
+            r = int(np.argmax(np.abs(rows)))
+            out.append(HeldMode(link.name, coords, names[r],
+                                float(rows[r] ** 2 / (rows @ rows))))
     return tuple(out)
 
 

@@ -27,7 +27,7 @@ from pipeline.kinematics.links import link_from_frames
 from pipeline.workflow.link_build import frame_axes, input_hash, link_request, reduce_spec
 from pipeline.workflow.link_spec import LinkSpec
 from pipeline.workflow.load import Workflow
-from pipeline.workflow.model_checks import basis_warnings
+from pipeline.workflow.model_checks import basis_warnings, held_mode_notes
 from pipeline.workflow.overrides import apply_overrides
 from pipeline.workflow.schema import MARKER_FIELDS, inertia_matrix
 from pipeline.workflow.yaml_io import _yaml_path, error_lines, error_message, load_yaml
@@ -54,6 +54,8 @@ class Machine:
     model_warnings : what the model cannot represent of what the machine asks of it, one
         line each (:mod:`pipeline.workflow.model_checks`); the analyses that depend on the
         flexible links are then ``suspect``.
+    model_notes : facts about the model worth knowing that are no finding by themselves
+        (modal motions the loops hold at zero), one line each.
     """
 
     workflow: Workflow
@@ -62,6 +64,7 @@ class Machine:
     qd0: np.ndarray
     parts: dict = field(default_factory=dict)
     model_warnings: tuple[str, ...] = ()
+    model_notes: tuple[str, ...] = ()
 
     @property
     def mechanism(self):
@@ -414,4 +417,5 @@ def build_machine(wf: Workflow, cache_dir: str | Path = "output/links",
     forces = build_forces(wf, mech, q0)
     system = System(mech, bodies, wf.spec.gravity, forces=forces, drivers=drivers)
     machine = Machine(wf, system, q0, qd0, parts)
-    return dataclasses.replace(machine, model_warnings=basis_warnings(wf, machine))
+    return dataclasses.replace(machine, model_warnings=basis_warnings(wf, machine),
+                               model_notes=held_mode_notes(wf, machine))

@@ -31,6 +31,7 @@ from pipeline.invariants.adequacy import (
     softest,
     with_relevance,
 )
+from pipeline.invariants.planar_modes import PLANES
 from pipeline.invariants.reduced_link import FrameModes
 from pipeline.workflow.schema import MARKER_FIELDS
 
@@ -50,14 +51,16 @@ def basis_warnings(wf, machine) -> tuple[str, ...]:
     pins only along its axis still bends under its own inertia). A stiff link's far pin
     that its loop holds fast is then no finding. A flexible link kept rigid (no modes: a
     modelling choice, the rigid case of a mode study) is not checked, but its full FE
-    compliance still sets how soft the machine is.
+    compliance still sets how soft the machine is. A link the machine moves and loads in
+    one plane of its body axes (:func:`machine_plane`) is checked in that plane, as one
+    with ``plane`` set.
     """
     checked, scale = [], 0.0
     for name, part in machine.parts.items():
         entry = wf.spec.links[name]
         if entry.type != "flexible" or frame_motions(part.reduced) is None:
             continue
-        plane = getattr(entry, "plane", None)
+        plane = getattr(entry, "plane", None) or machine_plane(machine, name)
         rows, held, _ = machine_conditions(wf, machine, name, plane)
         _, G, K, C = frame_motions(part.reduced, part.modes)
         cover = constrained_coverage(G, K, C, rows, held)
@@ -74,6 +77,71 @@ def basis_warnings(wf, machine) -> tuple[str, ...]:
                                  basis_remedy(constraint, f"links.{name}.modes"),
                                  "on the machine's supports")
     return tuple(out)
+
+
+def held_mode_notes(wf, machine) -> tuple[str, ...]:
+    """One line per modal motion the loops hold at zero at the initial configuration
+    (:func:`pipeline.kinematics.partition.held_modes`): which link, which of its modes,
+    through which closure row, and what to do. Not a finding by itself (a planar loop
+    holding a link's out-of-plane modes is expected); where it costs the machine
+    flexibility the basis check says so."""
+    from pipeline.kinematics.failures import SingularConfigurationError
+    from pipeline.kinematics.partition import held_modes
+
+    try:
+        held = held_modes(machine.mechanism, machine.q0, list(machine.system.drivers))
+    except SingularConfigurationError:  # a singular start: the analyses say so
+        return ()
+    out = []
+    for h in held:
+        part = machine.parts[h.link]
+        mech = machine.mechanism
+        own = [mech.coordinates[i] for i in mech.modal_index[mech.link_index(h.link)]]
+        modes = ", ".join(f"{c} ({part.reduced.frequencies_hz[part.modes[own.index(c)]]:.4g} Hz)"
+                          for c in h.coordinates)
+        out.append(f"link {h.link!r}: the loops hold its mode motion {modes} at zero through "
+                   f"{h.row}: no joint can follow that motion there, so it adds no "
+                   f"flexibility. If the link should deform there, reduce it with "
+                   f"Craig-Bampton modes (modes: {{craig_bampton: true}} in its link spec); "
+                   f"if not, keep only modes the loops let move (links.{h.link}.plane or "
+                   f"links.{h.link}.modes)")
+    return tuple(out)
+
+
+def machine_plane(machine, name: str, rtol: float = 1e-9) -> str | None:
+    """The plane of link ``name``'s body axes that the machine moves and loads it in, or
+    None: every joint coordinate turns the link about that plane's normal and moves it
+    along the plane, and gravity and the point forces and torques lie in it (a planar
+    machine built in 3-D). Such a link needs no flexibility across the plane."""
+    from pipeline.kinematics import evaluate_tree
+    from pipeline.kinematics.rotations import vee
+
+    mech = machine.mechanism
+    li = mech.link_index(name)
+    tree = evaluate_tree(mech, machine.q0)
+    joints = np.setdiff1d(np.arange(mech.n), mech.modal_coordinates).astype(int)
+    R = tree.A[li][:3, :3]
+    turns = [vee(tree.dA[li][k][:3, :3] @ R.T) for k in joints]
+    moves = [tree.dA[li][k][:3, 3] for k in joints]
+    if not any(np.abs(np.concatenate([*turns, *moves, np.zeros(1)])) > 0):
+        return None  # the machine does not move it: no plane to read
+    g = np.asarray(machine.system.gravity, dtype=float)
+    L = float(mech.length_scale)
+    loads = [np.asarray(f.force, dtype=float) for f in machine.system.forces
+             if getattr(f, "force", None) is not None]
+    torques = [np.asarray(f.torque, dtype=float) for f in machine.system.forces
+               if getattr(f, "torque", None) is not None]
+    if any(getattr(f, "follower", False) for f in machine.system.forces):
+        return None  # turns with its marker: no fixed plane to read
+    for plane, (axis, _) in PLANES.items():
+        n = R[:, axis]
+        across = [np.linalg.norm(np.cross(n, w)) * L for w in turns + torques]
+        across += [abs(n @ v) for v in moves] + [abs(n @ f) / max(np.linalg.norm(f), 1e-300)
+                                                for f in [g, *loads] if np.any(f)]
+        scale = max([np.linalg.norm(w) * L for w in turns] + [np.linalg.norm(v) for v in moves])
+        if max(across, default=0.0) <= rtol * max(scale, 1.0):
+            return plane
+    return None
 
 
 def machine_conditions(wf, machine, name: str, plane: str | None):

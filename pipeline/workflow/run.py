@@ -281,6 +281,8 @@ def _run_locked(wf, cache_dir, final, tmp, rebuild, outputs, workers, timings,
         _warn_redundant(wf, base)
         for w in base.model_warnings:
             logger.warning("%s: %s", wf.name, w)
+        for w in base.model_notes:
+            logger.info("%s: %s", wf.name, w)
         machines = {"": base}
         tasks = [(a, case) for a in wf.spec.analyses for case in (a.cases or [None])]
         if workers > 1 and len(tasks) > 1:

@@ -8,13 +8,15 @@ equals the overhanging beam's closed form P b^2 (a + b) / 3 EI."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from link_samples import boom_spec
 
 from pipeline.invariants.adequacy import constrained_coverage, frame_motions
+from pipeline.kinematics.partition import dof_report
 from pipeline.workflow import build_machine, load_workflow
 from pipeline.workflow.analyses import run_analysis
-from pipeline.workflow.model_checks import machine_conditions
+from pipeline.workflow.model_checks import machine_conditions, machine_plane
 from pipeline.workflow.series import marker_positions
 
 L, A_PIN, E, IZ, P = 2.0, 0.8, 2.1e11, 1.0e-6, 1.0
@@ -116,3 +118,88 @@ def test_a_workflow_frame_fixed_on_an_interface_loads_that_interface(tmp_path, o
     m, r, tip = run("{count: 8}")
     assert r.verdict == "suspect" and "at 'tip'" in m.model_warnings[0]
     assert _tip_coverage(m) == pytest.approx(tip / exact, abs=2e-3)
+
+
+PLATE = """\
+name: boom
+geometry:
+  type: solid
+  recipe: plate_with_bores
+  params:
+    length: 2.0
+    width: 0.05
+    thickness: 0.12
+    bores:
+      - {name: root, center: [0.05, 0.0], radius: 0.02}
+      - {name: pin, center: [0.8, 0.0], radius: 0.02}
+      - {name: tip, center: [1.95, 0.0], radius: 0.02}
+  mesh_size: 0.03
+  order: 2
+material: {E: 2.1e11, nu: 0.3, rho: 7850}
+interfaces:
+  - {name: root, selector: {type: group, name: bore_root}, origin: [0.05, 0, 0]}
+  - {name: pin, selector: {type: group, name: bore_pin}, origin: [0.8, 0, 0]}
+  - {name: tip, selector: {type: group, name: bore_tip}, origin: [1.95, 0, 0]}
+reference: root
+modes: {count: 4}
+"""
+
+#: the propped boom again, a tall plate meshed with unstructured tetrahedra (not symmetric
+#: about its mid-plane) on a spherical rod eye: a planar loop built in 3-D, whose
+#: out-of-plane row the rigid joints leave redundant
+ROD_EYE = WORKFLOW.replace("spec: boom.yaml, modes: 1, plane: xy}", "spec: boom.yaml, modes: 1}") \
+    .replace("O: {origin: [0, 0, 0]}", "O: {origin: [0.05, 0, 0]}") \
+    .replace("{name: T, type: revolute,", "{name: T, type: spherical,") \
+    .replace(f"force: [0, {-P}, 0]", "force: [0, -1000.0, 0]")
+
+
+def _plate_run(tmp_path, sets=()):
+    (tmp_path / "boom.yaml").write_text(PLATE)
+    (tmp_path / "eye.yaml").write_text(ROD_EYE)
+    m = build_machine(load_workflow(tmp_path / "eye.yaml", sets=list(sets)), tmp_path / "links")
+    r = run_analysis(m, "sag")
+    return m, r, marker_positions(m.mechanism, r.q, "boom", "tip")[-1, 1]
+
+
+@pytest.mark.gmsh
+def test_an_asymmetric_mesh_does_not_let_a_planar_loop_lock_its_in_plane_modes(tmp_path):
+    """Issue 24, seen 2: the in-plane modes carry 1e-5 of out-of-plane motion at the lug
+    (mesh round-off), the rod eye's lateral row acted on nothing else, and the loop held
+    the modes at zero (sag exactly 0; one of two modes locked). Now the round-off is no
+    motion across the plane, the row is redundant, and the two in-plane modes give the
+    Craig-Bampton model's sag."""
+    assert ROD_EYE != WORKFLOW and "spherical" in ROD_EYE
+    _, exact_r, exact = _plate_run(tmp_path, ["links.boom.modes=null",
+                                              "links.boom.spec_overrides.modes={count: 8, "
+                                              "craig_bampton: true}"])
+    assert exact_r.verdict == "ok", exact_r.warnings
+    assert exact < -1e-4
+    m, r, tip = _plate_run(tmp_path, ["links.boom.modes=[0, 2]"])
+    red = m.parts["boom"].reduced
+    lug = red.frame("pin").phi[[0, 2]]
+    assert np.all(np.abs(lug[:, 2]) > 1e-7 * np.abs(lug[:, 1]))  # the mesh is asymmetric
+    assert "L1 (cut 'T'): position z" in dof_report(m.mechanism, m.q0).redundant
+    assert tip / exact == pytest.approx(1.0, abs=0.02), (tip, exact)
+    assert r.verdict == "ok", r.warnings
+
+
+@pytest.mark.gmsh
+def test_a_mode_the_loops_really_hold_is_named_with_its_row_and_the_check_reads_the_plane(
+        tmp_path):
+    """The plate's out-of-plane bending mode alone: the rod eye's lateral row holds it (its
+    motion there is real, not round-off). The build names the mode, its frequency and the
+    row; the machine moves and loads the boom in its x-y plane, so the basis check reads
+    the in-plane tip compliance -- none carried -- and the static run is suspect."""
+    m, r, tip = _plate_run(tmp_path, ["links.boom.modes=[1]"])
+    assert tip == 0.0
+    (note,) = m.model_notes
+    f = m.parts["boom"].reduced.frequencies_hz[1]
+    assert f"boom.eta1 ({f:.4g} Hz)" in note and "L1 (cut 'T'): position z" in note
+    assert "craig_bampton: true" in note
+    assert r.verdict == "suspect" and "y 0 % at 'tip'" in r.warnings[-1]
+    assert machine_plane(m, "boom") == "xy"
+    # kept with the in-plane modes, it is held again, and they carry the sag: ok
+    m3, r3, tip3 = _plate_run(tmp_path, ["links.boom.modes=[0, 1, 2]"])
+    assert len(m3.model_notes) == 1 and "boom.eta2" in m3.model_notes[0]
+    assert r3.verdict == "ok" and tip3 == pytest.approx(_plate_run(
+        tmp_path, ["links.boom.modes=[0, 2]"])[2], rel=1e-9)
