@@ -175,7 +175,8 @@ def run_dynamic(m: Machine, a, path) -> dict:
                                                   "generalized_alpha; use max_step otherwise")
     c = a.checks
     limits = Limits(energy=c.energy, closure=c.closure, deformation=c.deformation,
-                    rotation=c.rotation, min_step=c.min_step, spin=c.spin)
+                    rotation=c.rotation, min_step=c.min_step, spin=c.spin,
+                    axial=c.axial)
     try:
         r = simulate(system, q0, m.qd0, (0.0, a.t_end), t_eval=_times(a), method=a.method,
                      rtol=a.rtol, atol=a.atol, progress=True, formulation=a.formulation,

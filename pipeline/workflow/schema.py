@@ -289,6 +289,8 @@ class ChecksSpec(Strict):
     min_step: float = Field(1e-9, gt=0, description="smallest step relative to the span")
     spin: float = Field(0.05, gt=0, description="largest Omega^2 / omega_1^2 of a flexible "
                                                 "link without geometric stiffening")
+    axial: float = Field(0.05, gt=0, description="largest axial force / Euler load of a "
+                                                 "flexible link without geometric stiffening")
 
 
 class StaticStart(Strict):

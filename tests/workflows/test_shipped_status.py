@@ -9,10 +9,21 @@ import pytest
 @pytest.mark.parametrize("name", ["double_pendulum", "front_loader", "mobile_crane",
                                   "slider_crank", "tractor_trailer"])
 def test_shipped_workflow_is_ok(quick_run, name):
+    """The slider-crank's 'linear' case is the rod without geometric stiffening, shipped to
+    show what it leaves out: it is 19 % off and says so (the axial load check), by design;
+    every other case of every shipped workflow is ok."""
     man = quick_run(name).manifest
     bad = {a: [(c["case"], c["verdict"], c["warnings"] or c["message"]) for c in cases
                if c["verdict"] != "ok"] for a, cases in man["analyses"].items()}
-    assert man["status"] == "ok", {a: v for a, v in bad.items() if v}
+    bad = {a: v for a, v in bad.items() if v}
+    if name == "slider_crank":
+        ((case, verdict, (warning,)),) = bad.pop("run")
+        assert (case, verdict) == ("linear", "suspect")
+        assert "axial tension at 'B'" in warning and "geometric_stiffening: true" in warning
+        assert man["status"] == "suspect"
+    else:
+        assert man["status"] == "ok", bad
+    assert not bad
 
 
 @pytest.mark.slow
