@@ -45,7 +45,7 @@ from pipeline.kinematics.partition import RANK_RTOL
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["initial_positions", "initial_velocities", "lexicographic_lsq"]
+__all__ = ["initial_positions", "initial_velocities", "lexicographic_lsq", "reach"]
 
 
 def _null(A: np.ndarray) -> np.ndarray:
@@ -148,13 +148,24 @@ def initial_positions(mech: Mechanism, q_guess: np.ndarray, fixed: Mapping[str, 
         if not given or "over-constrain" not in str(exc):
             raise
     # the given values over-determine the loops: least squares among them
+    q = _nearest(mech, q, fixed, given, closure_tol)
+    _check_given(mech, q, _indices(mech, given), np.array(list(given.values()), dtype=float),
+                 mech.coordinate_units, tol, "coordinates")
+    return q
+
+
+def _nearest(mech: Mechanism, q: np.ndarray, fixed: Mapping[str, float],
+             given: Mapping[str, float], closure_tol: float, iterations: int = 50
+             ) -> np.ndarray:
+    """The assembled q (n,) with ``fixed`` held whose ``given`` coordinates are nearest
+    their values (Gauss-Newton on the closure with the given values as a lower tier,
+    steps of at most 0.2 natural units)."""
     q = assemble(mech, q, tuple(fixed), tol=closure_tol).q
     unit = mech.coordinate_units
-    fixed_idx = np.concatenate([_indices(mech, fixed), mech.modal_coordinates[:0]])
-    free = np.setdiff1d(np.arange(mech.n), fixed_idx)
+    free = np.setdiff1d(np.arange(mech.n), _indices(mech, fixed))
     gi, gv = _indices(mech, given), np.array(list(given.values()), dtype=float)
     w = np.asarray(mech.row_weights)
-    for _ in range(50):
+    for _ in range(iterations):
         c = closure(mech, q)
         A = (w[:, None] * c.J)[:, free] * unit[free]
         z, _ = lexicographic_lsq(A, -w * c.r, _tiers(mech, free, gi, gv, q, unit))
@@ -162,9 +173,62 @@ def initial_positions(mech: Mechanism, q_guess: np.ndarray, fixed: Mapping[str, 
         q[free] += step * unit[free]
         if np.abs(step).max(initial=0.0) < 1e-14 and np.abs(w * c.r).max() <= closure_tol:
             break
-    q = assemble(mech, q, tuple(fixed), tol=closure_tol).q  # polish the closure
-    _check_given(mech, q, gi, gv, unit, tol, "coordinates")
-    return q
+    return assemble(mech, q, tuple(fixed), tol=closure_tol).q  # polish the closure
+
+
+def reach(mech: Mechanism, q_guess: np.ndarray, fixed: Mapping[str, float], name: str,
+          closure_tol: float = 1e-12, rtol: float = 1e-9) -> tuple[float, float] | None:
+    """(lowest, highest) value of coordinate ``name`` at which the loops close with the
+    other ``fixed`` coordinates held, on the branch the assembly from ``q_guess`` finds
+    with ``name`` free; None if the loops cannot close even with it free.
+
+    From that assembly the value is moved each way in steps of 0.05 of its unit (steps
+    short enough not to leap a gap: a cylinder's rod cannot pass through its foot pin, but
+    a long step lands on the mirror branch beyond) until the loops no longer close, then
+    the edge is bisected to ``rtol`` of its unit, each trial assembled from the last one
+    that closed. An edge further than 10 length scales (a translation) or 2 pi (an angle)
+    away is +-inf (no limit that way).
+    """
+    others = {k: v for k, v in fixed.items() if k != name}
+    try:
+        q0 = assemble(mech, np.asarray(q_guess, dtype=float), tuple(others),
+                      tol=closure_tol).q
+    except KinematicsError:
+        return None
+    i = mech.index(name)
+    unit = float(mech.coordinate_units[i])
+    limit = 10.0 * unit if unit != 1.0 else 2.0 * np.pi
+    held = tuple(others) + (name,)
+
+    def closes(q, v):
+        trial = q.copy()
+        trial[i] = v
+        try:
+            return assemble(mech, trial, held, tol=closure_tol).q
+        except KinematicsError:
+            return None
+
+    ends = []
+    for sign in (-1.0, 1.0):
+        q_in, v_in, step, v_out = q0, float(q0[i]), 0.05 * unit, None
+        while abs(v_in - q0[i]) < limit:
+            q = closes(q_in, v_in + sign * step)
+            if q is None:
+                v_out = v_in + sign * step
+                break
+            q_in, v_in = q, v_in + sign * step
+        if v_out is None:
+            ends.append(sign * np.inf)
+            continue
+        while abs(v_out - v_in) > rtol * unit:
+            mid = 0.5 * (v_in + v_out)
+            q = closes(q_in, mid)
+            if q is None:
+                v_out = mid
+            else:
+                q_in, v_in = q, mid
+        ends.append(v_in)
+    return ends[0], ends[1]
 
 
 def initial_velocities(mech: Mechanism, q: np.ndarray, fixed: Mapping[str, float] = {},

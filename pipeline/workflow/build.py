@@ -22,7 +22,7 @@ from pipeline.dynamics.bodies import FrameView, frame_views, in_plane_modes
 from pipeline.dynamics.forces import FORCES
 from pipeline.kinematics import Joint, build_mechanism, evaluate_tree, rigid_link
 from pipeline.kinematics.drivers import driver_from_dict
-from pipeline.kinematics.initial import initial_positions, initial_velocities
+from pipeline.kinematics.initial import initial_positions, initial_velocities, reach
 from pipeline.kinematics.links import link_from_frames
 from pipeline.workflow.link_build import frame_axes, input_hash, link_request, reduce_spec
 from pipeline.workflow.link_spec import LinkSpec
@@ -388,6 +388,7 @@ def initial_state(wf: Workflow, mech, drivers, init=None, path=("initial",)):
     try:
         q = initial_positions(mech, mech.q_initial, driven, dict(init.coordinates))
     except PipelineError as exc:
+        out_of_reach(wf, mech, driven)
         where = (*path, "coordinates") if init.coordinates else path
         raise wf.error(*where, msg=f"cannot assemble the machine at t = 0: {exc}") from None
     try:
@@ -395,6 +396,26 @@ def initial_state(wf: Workflow, mech, drivers, init=None, path=("initial",)):
     except PipelineError as exc:
         raise wf.error(*path, "velocities", msg=str(exc)) from None
     return q, qd
+
+
+def out_of_reach(wf: Workflow, mech, driven: dict[str, float]) -> None:
+    """Raise, at the driver's line, for a driver whose value at t = 0 the loops cannot
+    reach with the other drivers at theirs: its value and the range that closes
+    (:func:`pipeline.kinematics.initial.reach`). Returns if every driver is within reach
+    on its own (the failure is elsewhere)."""
+    for name, value in driven.items():
+        if not mech.topology.loops:
+            return
+        span = reach(mech, mech.q_initial, driven, name)
+        if span is None or span[0] <= value <= span[1]:
+            continue
+        unit = "m" if mech.coordinate_units[mech.index(name)] != 1.0 else "rad"
+        others = ", ".join(f"{k} = {v:.6g}" for k, v in driven.items() if k != name)
+        raise wf.error("drivers", name, msg=(
+            f"{name} = {value:.6g} {unit} at t = 0 is out of reach: the loops close only "
+            f"for {name} from {span[0]:.6g} to {span[1]:.6g} {unit}"
+            + (f" (with {others})" if others else "") + "; change the driver's value at "
+            "t = 0 or the geometry (joint frames, link lengths)")) from None
 
 
 def build_machine(wf: Workflow, cache_dir: str | Path = "output/links",

@@ -94,3 +94,21 @@ def test_a_coordinate_that_moves_the_loop_rigidly_is_no_constraint_direction():
     assert numerical_rank(Jn) == 3  # the planar loop's three in-plane rows
     r = dof_report(m, a.q, ["slew.theta", "stroke.d"])
     assert r.free == () and len(r.redundant) == 3
+
+
+def test_the_reach_of_a_crank_is_the_closed_form():
+    """A non-Grashof four-bar (crank 2, coupler 1, rocker 1.5, ground 2): the crank tip A
+    stays within b + c of O4 and at least |b - c| from it, so cos theta2 runs from
+    (a^2 + d^2 - (b + c)^2) / 2ad to (a^2 + d^2 - (b - c)^2) / 2ad; the free coordinate's
+    range is found to 1e-8 rad from inside it."""
+    from pipeline.kinematics.initial import reach
+
+    a, b, c, d = 2.0, 1.0, 1.5, 2.0
+    m = four_bar(a, b, c, d, theta2=0.6, theta3=1.9, theta4=2.6)
+    lo = np.arccos((a * a + d * d - (b - c) ** 2) / (2 * a * d))
+    hi = np.arccos((a * a + d * d - (b + c) ** 2) / (2 * a * d))
+    got = reach(m, m.q_initial, {"J2.theta": 0.6}, "J2.theta")
+    np.testing.assert_allclose(got, (lo, hi), atol=1e-8)
+    # a coordinate the loops leave unbounded: a Grashof crank turns all the way round
+    g = four_bar(1.0, 3.0, 2.5, 3.0, theta2=0.4, theta3=1.0, theta4=1.8)
+    assert reach(g, g.q_initial, {"J2.theta": 0.4}, "J2.theta") == (-np.inf, np.inf)

@@ -213,3 +213,62 @@ def test_a_number_out_of_range_is_not_told_the_words_it_could_be():
         said = [line.split(": ", 2)[2] for line in msg.splitlines()]
         assert len(said) == len(expected) and all(
             a.startswith(b) for a, b in zip(said, expected, strict=True)), msg
+
+
+REACH = """\
+name: reach
+gravity: [0, -9.81, 0]
+links:
+  ground: {type: ground, frames: {O: {origin: [0, 0, 0]}, S: {origin: [0.5, -1.0, 0]}}}
+  boom:
+    type: rigid
+    mass: 10.0
+    inertia: [1, 1, 1, 0, 0, 0]
+    frames: {O: {origin: [0, 0, 0]}, LUG: {origin: [1.0, 0, 0]}}
+  barrel:
+    type: rigid
+    mass: 1.0
+    inertia: [0.1, 0.1, 0.1, 0, 0, 0]
+    frames:
+      FOOT: {origin: [0, 0, 0]}
+      AXIS: {origin: [0, 0, 0], z: [1, 0, 0], x: [0, 0, 1]}
+  rod:
+    type: rigid
+    mass: 1.0
+    inertia: [0.1, 0.1, 0.1, 0, 0, 0]
+    frames:
+      END: {origin: [0, 0, 0]}
+      AXIS: {origin: [0, 0, 0], z: [1, 0, 0], x: [0, 0, 1]}
+joints:
+  - {name: BOOM, type: revolute, parent: ground.O, child: boom.O, initial: [0.3]}
+  - {name: FOOT, type: revolute, parent: ground.S, child: barrel.FOOT, initial: [1.2]}
+  - {name: CYL, type: prismatic, parent: barrel.AXIS, child: rod.AXIS, initial: [1.3]}
+  - {name: END, type: revolute, parent: rod.END, child: boom.LUG}
+# the boom cylinder, from its foot pin S to the boom's lug, 1 m from the boom's pin O
+drivers:
+  CYL.d: {type: smooth_step, t0: 0.0, t1: 1.0, v0: 2.5, v1: 1.5}
+analyses:
+  - {name: hold, type: static}
+"""
+
+
+@pytest.mark.parametrize("stroke, edge", [(2.5, "2.11803"), (0.05, "0.118034")])
+def test_a_stroke_out_of_reach_names_the_driver_and_the_reachable_range(tmp_path, capsys,
+                                                                       stroke, edge):
+    """Issue 24, seen 6: a cylinder too long (or too short) to close its loop at t = 0 read
+    "driven coordinates [...] over-constrain the mechanism", or "cannot close", at the top
+    of a file without ``initial:``. Nothing is over-driven: the stroke is out of reach. The
+    lug swings on a 1 m circle about O, whose distance from S is sqrt(1.25), so the loop
+    closes for strokes from sqrt(1.25) - 1 to sqrt(1.25) + 1."""
+    p = _write(tmp_path, REACH.replace("v0: 2.5", f"v0: {stroke}"))
+    assert main(["validate", str(p), "--build"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"error: {p}:{_line_of(REACH, 'CYL.d: {type')}: drivers.CYL.d: ")
+    assert f"CYL.d = {stroke:g} m at t = 0 is out of reach" in err
+    assert "from 0.118034 to 2.11803 m" in err and edge in err
+    assert "over-constrain" not in err and "\n" not in err
+    lo, hi = 1.25 ** 0.5 - 1.0, 1.25 ** 0.5 + 1.0
+    assert (f"{lo:.6g}", f"{hi:.6g}") == ("0.118034", "2.11803")
+    # within reach, the same machine builds
+    assert main(["validate", str(_write(tmp_path, REACH.replace("v0: 2.5", "v0: 2.0"))),
+                 "--build"]) == 0
