@@ -15,6 +15,11 @@ from pipeline.study.spec import mode_label
 from pipeline.workflow.link_build import REDUCTION_REVISION, versions
 
 
+#: what a truncation case records besides the compared series (2: the world positions of
+#: the truncated link's frames and the machine's lowest frequencies); a change reruns cases
+EVIDENCE_REVISION = 2
+
+
 @dataclass(frozen=True)
 class Case:
     """One run of the base workflow.
@@ -77,6 +82,7 @@ def study_cases(spec, base_path: Path, flexible_links: list[str],
               "quick": spec.quick, "set": spec.set, "analyses": spec.analyses,
               "versions": versions(),
               "reduction": REDUCTION_REVISION,
+              "evidence": EVIDENCE_REVISION,
               "compare": spec.truncation.series if spec.truncation else [],
               "outputs": [o.model_dump() for o in spec.outputs]}
     return [replace(c, input_hash=content_hash({**common, "overrides": c.overrides}))

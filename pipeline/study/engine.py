@@ -6,6 +6,9 @@
   base workflow with the case's overrides, runs the analyses and returns its status, the
   compared series and the derived outputs. A worker that dies costs only the case it held
   (distributed retries it elsewhere, or it comes back "lost" with the reason).
+* A truncation case also records the world positions of every flexible link's frames and
+  the machine's lowest frequencies (:func:`world_evidence`): evidence in the machine's
+  terms, not only in a link's own axes.
 * Results are kept per case (``cases/<hash>.npz``) and in one table (``cases.parquet`` and
   ``cases.csv``: one row per case, parameters, outputs, status, seconds); a case whose
   input hash is already in the table with a result is not run again, so a study resumes.
@@ -48,12 +51,19 @@ class StudyResult:
 
 
 def run_case(base: str, quick: bool, overrides: dict, label: str, analyses, cache_dir: str,
-             series_names: list, outputs: list) -> dict:
+             series_names: list, outputs: list, world: dict | None = None) -> dict:
     """One case (runs on a worker): status, message, seconds, the compared series
-    ({"analysis:series": (t, values)}) and the derived outputs ({name: value})."""
+    ({"analysis:series": (t, values)}) and the derived outputs ({name: value}).
+
+    ``world`` ({link: [frame, ...]}, a truncation study's links) adds the world-frame
+    evidence: each frame's ground position and elastic displacement over every analysis
+    ("analysis:world|link.frame", "analysis:elastic|link.frame", (T, 3) m) and the machine's
+    lowest frequencies at static equilibrium at t = 0 ("frequencies", Hz; absent where the
+    machine has no equilibrium to linearise about).
+    """
     from pipeline.workflow import build_machine, load_workflow
     from pipeline.workflow.analyses import run_analysis
-    from pipeline.workflow.series import series
+    from pipeline.workflow.series import marker_positions, series
 
     t0 = time.perf_counter()
     try:
@@ -67,6 +77,18 @@ def run_case(base: str, quick: bool, overrides: dict, label: str, analyses, cach
             for s in series_names:
                 out_series[f"{n}:{s}"] = (np.asarray(r.t), series(r, m.mechanism, s,
                                                                  m.parts).values)
+        for n, r in results.items():
+            for link, frames in (world or {}).items():
+                for f in frames:
+                    q = np.asarray(r.q)
+                    out_series[f"{n}:world|{link}.{f}"] = (
+                        np.asarray(r.t), marker_positions(m.mechanism, q, link, f))
+                    out_series[f"{n}:elastic|{link}.{f}"] = (
+                        np.asarray(r.t), marker_positions(m.mechanism, q, link, f, True))
+        if world:
+            f_hz = start_frequencies(m)
+            if f_hz.size:
+                out_series["frequencies"] = (np.arange(f_hz.size, dtype=float), f_hz)
         derived = {}
         for o in outputs:
             r = results[o["analysis"] or names[0]]
@@ -81,6 +103,28 @@ def run_case(base: str, quick: bool, overrides: dict, label: str, analyses, cach
                 "series": {}, "outputs": {}}
     return {"status": status, "message": message, "seconds": time.perf_counter() - t0,
             "series": out_series, "outputs": derived}
+
+
+#: how many of the machine's lowest frequencies a truncation study compares
+FREQUENCIES = 3
+
+
+def start_frequencies(m) -> np.ndarray:
+    """The machine's lowest :data:`FREQUENCIES` natural frequencies (Hz) about its static
+    equilibrium at t = 0 (drivers held), or none where that equilibrium or its
+    linearisation cannot be had (a machine without one: it says nothing then)."""
+    from pipeline.dynamics.linearize import vibration_modes
+    from pipeline.dynamics.statics import static_equilibrium
+
+    try:
+        st = static_equilibrium(m.system, m.q0, t=0.0)
+        if not st.success:
+            return np.zeros(0)
+        f = vibration_modes(m.system, st.q, t=0.0).frequencies_hz
+    except (PipelineError, np.linalg.LinAlgError, ValueError):
+        return np.zeros(0)
+    f = f[np.isfinite(f) & (f > 0)]
+    return np.sort(f)[:FREQUENCIES]
 
 
 def _reduce(v: np.ndarray, how: str) -> float:
@@ -126,11 +170,13 @@ def run_study(study: str | Path, *, out_root: str | Path = "output", workers: in
     old = {r["input_hash"]: r for r in _read_rows(folder) if r.get("status") in KEPT}
     todo = [c for c in cases if c.input_hash not in old or not _case_file(folder, c).is_file()]
     with stage(f"study {spec.name}: links"):
-        build_machine(wf, cache)  # reductions shared by content hash with every case
+        machine = build_machine(wf, cache)  # reductions shared by content hash with every case
         for c in todo:
             if any(".spec" in k for k in c.overrides):
                 build_machine(wf.for_case(c.overrides, c.label), cache)
-    fresh = _run(spec, base, todo, cache, workers, scheduler, folder) if todo else {}
+        _check_mode_counts(spec, wf, machine, todo, study)
+    world = world_frames(machine, spec, flexible)
+    fresh = _run(spec, base, todo, cache, workers, scheduler, folder, world) if todo else {}
     rows = []
     for c in cases:
         row = fresh.get(c.input_hash) or old.get(c.input_hash)
@@ -199,11 +245,43 @@ def _check_names(spec, wf, study) -> None:
                                   f"link of {wf.path.name} ({flexible})")
 
 
+def world_frames(machine, spec, flexible) -> dict[str, list[str]]:
+    """{link: its frames} of every flexible link (its stored and workflow frames but the
+    body frame) when the study truncates modes: whose world positions the cases record."""
+    if spec.truncation is None:
+        return {}
+    mech = machine.mechanism
+    return {link: [f.name for f in mech.links[mech.link_index(link)].frames
+                   if f.name != "body"] for link in flexible}
+
+
+def _check_mode_counts(spec, wf, machine, cases, study) -> None:
+    """Every truncation case's kept modes exist in its link's reduction, before any worker
+    starts: a count the spec does not compute is one line here, not a column of failed
+    cases after the cluster came up."""
+    from pipeline.workflow.build import kept_modes
+    from pipeline.workflow.yaml_io import load_yaml
+
+    lines = None
+    for c in cases:
+        if c.kind != "truncation" or c.link not in machine.parts:
+            continue
+        try:
+            entry = wf.for_case(c.overrides, c.label).spec.links[c.link]
+            kept_modes(machine.parts[c.link].reduced, entry.modes,
+                       getattr(entry, "plane", None))
+        except ConfigError as exc:
+            lines = load_yaml(study)[1] if lines is None else lines
+            line = lines.get(("truncation", "modes", c.order), lines.get(("truncation",), 1))
+            raise ConfigError(f"{study}:{line}: truncation.modes.{c.order}: case "
+                              f"{c.label!r}: {exc}; nothing was run") from None
+
+
 def _case_file(folder: Path, c: Case) -> Path:
     return folder / "cases" / f"{c.input_hash[:16]}.npz"
 
 
-def _run(spec, base, todo, cache, workers, scheduler, folder) -> dict[str, dict]:
+def _run(spec, base, todo, cache, workers, scheduler, folder, world=None) -> dict[str, dict]:
     try:
         from distributed import Client, LocalCluster, as_completed
     except ImportError:
@@ -225,7 +303,8 @@ def _run(spec, base, todo, cache, workers, scheduler, folder) -> dict[str, dict]
         try:
             futures = {client.submit(run_case, str(base), spec.quick,
                                      {**spec.set, **c.overrides}, c.label,
-                                     spec.analyses, str(cache), names, outs, pure=False,
+                                     spec.analyses, str(cache), names, outs,
+                                     world if c.kind == "truncation" else None, pure=False,
                                      key=f"case-{c.input_hash[:16]}"): k
                        for k, c in enumerate(todo)}
             board = TaskBoard(c.label for c in todo)
@@ -281,8 +360,8 @@ def case_series(folder: Path, c: Case) -> dict[str, tuple[np.ndarray, np.ndarray
 
 def recommend(spec, cases: list[Case], folder: Path) -> dict[str, dict]:
     """Per link: the leanest kept-mode entry (in the study's order) whose every compared
-    series stays within the tolerance (relative RMS difference over the common times) of
-    the richest (the last), and the evidence: {"recommended": label, "reference": label,
+    series and world figure (:func:`world_evidence`) stays within the tolerance (relative
+    RMS difference over the common times) of the richest (the last), and the evidence: {"recommended": label, "reference": label,
     "tolerance": tol, "evidence": {label: {series: relative}}}; without the richest case's
     results, "recommended" is None and "why" says so."""
     t = spec.truncation
@@ -305,11 +384,48 @@ def recommend(spec, cases: list[Case], folder: Path) -> dict[str, dict]:
         for c in ok:
             s = case_series(folder, c)
             evidence[c.modes] = {k: _relative(s[k][1], v) for k, (_, v) in ref_series.items()
-                                 if k in s}
+                                 if k in s and not _is_world(k)}
+            evidence[c.modes].update(world_evidence(s, ref_series))
         good = [c.modes for c in ok[:-1] if evidence[c.modes] and
                 max(evidence[c.modes].values()) <= t.tolerance]
         out[link] = {"recommended": good[0] if good else ref.modes, "reference": ref.modes,
                      "tolerance": t.tolerance, "evidence": evidence}
+    return out
+
+
+def _is_world(key: str) -> bool:
+    return key == "frequencies" or "world|" in key or "elastic|" in key
+
+
+def world_evidence(s: dict, ref: dict) -> dict[str, float]:
+    """The world-frame part of a truncation case's evidence against the reference's: per
+    analysis, the largest RMS distance over time between a flexible link's frame in the
+    case and in the reference (ground positions), relative to the largest RMS elastic
+    displacement of any such frame in the reference -- how far the machine's shape moves
+    against how far it deforms, seen where the machine puts it (a boom too stiff at its lug
+    turns less about its foot: its own-axes deflection can agree while its tip does not);
+    and the largest relative difference of the machine's lowest frequencies."""
+    def rms(P):
+        return float(np.sqrt(np.mean(np.sum(np.asarray(P) ** 2, axis=1)))) if len(P) else 0.0
+
+    out = {}
+    for n in sorted({k.split(":", 1)[0] for k in ref if ":world|" in k}):
+        keys = [k for k in ref if k.startswith(f"{n}:world|") and k in s]
+        if not keys:
+            continue
+        scale = max(rms(ref[k.replace("world|", "elastic|")][1]) for k in keys)
+        diff = 0.0
+        for k in keys:
+            T = min(len(s[k][1]), len(ref[k][1]))
+            diff = max(diff, rms(np.asarray(s[k][1])[:T] - np.asarray(ref[k][1])[:T]))
+        out[f"{n}: flexible links in the world"] = (diff / scale if scale > 0 else
+                                                    (0.0 if diff == 0 else float("inf")))
+    if "frequencies" in ref and "frequencies" in s:
+        f, fr = np.asarray(s["frequencies"][1]), np.asarray(ref["frequencies"][1])
+        k = min(f.size, fr.size)
+        if k:
+            out[f"lowest {k} machine frequencies"] = float(np.max(np.abs(f[:k] - fr[:k])
+                                                                  / fr[:k]))
     return out
 
 
