@@ -11,7 +11,8 @@ from pipeline.post.plots import save_figure
 
 def plot_convergence(path: str | Path, labels, relative: dict, *, reference: str,
                      title: str | None = None) -> Path:
-    """PNG: one group of bars per case, one bar per series, log scale (reference omitted).
+    """PNG: one group of bars per case, one bar per series, log scale (reference omitted; a
+    value that is not finite draws no bar, and a chart with none says so).
 
     Parameters
     ----------
@@ -26,12 +27,19 @@ def plot_convergence(path: str | Path, labels, relative: dict, *, reference: str
     fig, ax = plt.subplots(figsize=(7.5, 4.5), dpi=110)
     width = 0.8 / max(len(relative), 1)
     x = np.arange(len(keep))
+    drawn = 0
     for j, (name, values) in enumerate(relative.items()):
         v = np.asarray(values, dtype=float)[keep]
-        ax.bar(x + (j - (len(relative) - 1) / 2) * width, np.maximum(v, 1e-16), width,
-               label=name)
+        ok = np.isfinite(v)  # no comparison (a case without data, a zero reference): no bar
+        drawn += int(ok.sum())
+        ax.bar((x + (j - (len(relative) - 1) / 2) * width)[ok], np.maximum(v[ok], 1e-16),
+               width, label=name)
     ax.set_xticks(x, [labels[i] for i in keep])
-    ax.set_yscale("log")
+    if drawn:
+        ax.set_yscale("log")
+    else:
+        ax.text(0.5, 0.5, "no difference could be computed\n(see the CSV and the run's notes)",
+                ha="center", va="center", transform=ax.transAxes)
     ax.set_ylabel(f"RMS difference from '{reference}' / RMS of '{reference}', -")
     ax.set_xlabel("case")
     ax.set_title(title or f"Convergence towards '{reference}'")

@@ -332,6 +332,10 @@ def _convergence(folder, machines, results, c, skipped) -> list[str]:
     if missing:
         skipped.append(f"convergence {c.name!r}: " + "; ".join(_why(r) for r in missing))
         return []
+    short = [r for r in results[c.analysis] if not r.success]
+    if short:
+        skipped.append(f"convergence {c.name!r}: compared over the common times only: "
+                       + "; ".join(f"{_what(r)} stopped at t = {r.t[-1]:.6g} s" for r in short))
     conv = convergence(results[c.analysis], machines, c.series, c.reference)
     write_convergence_csv(folder / f"{c.name}.csv", conv)
     plot_convergence(folder / f"{c.name}.png", conv.labels, conv.relative,
@@ -345,33 +349,53 @@ def write_outputs(folder: Path, wf, machines, results, timings: dict,
     output whose analysis (or case) has no results is skipped with a note in ``skipped``;
     the others are written."""
     skipped = [] if skipped is None else skipped
+    # a run that stopped early draws what its histories allow; an output they cannot give
+    # is skipped and listed (a complete run's failure is a bug and is raised)
+    partial = any(not r.success for rs in results.values() for r in rs)
+
+    def each(what: str, name: str, draw) -> list:
+        try:
+            out = draw()
+        except Exception as exc:  # noqa: BLE001 - only for partial runs, re-raised otherwise
+            if not partial or isinstance(exc, (KeyboardInterrupt, MemoryError)):
+                raise
+            skipped.append(f"{what} {name!r}: not drawn from the partial histories "
+                           f"({type(exc).__name__}: {exc})")
+            return []
+        return out if isinstance(out, list) else [out]
+
     files = []
     t0 = time.perf_counter()
     with stage(f"{wf.name}: exports"):
-        files += write_exports(folder, wf, machines, results, skipped)
+        files += each("exports", "all", lambda: write_exports(folder, wf, machines, results,
+                                                                skipped))
     timings["exports"] = time.perf_counter() - t0
     outs = wf.spec.outputs
     t0 = time.perf_counter()
     with stage(f"{wf.name}: plots"):
         for i, p in enumerate(outs.plots):
-            files.append(_plot(folder, wf, machines, results, i, p, skipped))
+            files += each("plot", p.name, lambda i=i, p=p: _plot(folder, wf, machines, results,
+                                                                  i, p, skipped))
     timings["plots"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     with stage(f"{wf.name}: renders"):
         for i, r in enumerate(outs.renders):
-            files.append(_render(folder, wf, machines, results, i, r, skipped))
+            files += each("render", r.name, lambda i=i, r=r: _render(
+                folder, wf, machines, results, i, r, skipped))
         for i, an in enumerate(outs.animations):
-            files.append(_animate(folder, wf, machines, results, i, an, skipped))
+            files += each("animation", an.name, lambda i=i, an=an: _animate(
+                folder, wf, machines, results, i, an, skipped))
     timings["renders"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     for c in outs.convergence:
-        files += _convergence(folder, machines, results, c, skipped)
+        files += each("convergence", c.name, lambda c=c: _convergence(folder, machines, results,
+                                                                       c, skipped))
     timings["studies"] = time.perf_counter() - t0
     if outs.exports.vtu:
         t0 = time.perf_counter()
         with stage(f"{wf.name}: ParaView series"):
-            files += _vtu(folder, machines, results, outs.exports.vtu_frames,
-                          outs.exports.vtu_mb)
+            files += each("ParaView series", "vtu", lambda: _vtu(
+                folder, machines, results, outs.exports.vtu_frames, outs.exports.vtu_mb))
         timings["vtu"] = time.perf_counter() - t0
     for note in skipped:
         logger.warning("%s: %s", wf.name, note)

@@ -15,6 +15,7 @@ import textwrap
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from test_workflow_run import FOURBAR, _write
 
@@ -697,3 +698,35 @@ def test_task_board_tracks_queued_running_and_finished_tasks():
     board.finished(2, "lost", 3.5)
     assert board.state == ["queued", "running", "lost"] and board.began[1] == 10.0
     assert board.n_done == 1
+
+
+@pytest.mark.gmsh
+def test_a_budget_stopped_run_keeps_its_histories_and_draws_what_they_allow(tmp_path):
+    """Issue 26, seen 4: a step budget that stops both cases of the double pendulum at its
+    first output used to end "internal error (Data cannot be log-scaled)", exit 3, nothing
+    written: the convergence chart had no finite bar. Now the run is partial, every output
+    is written from the histories up to the stop, and the chart's comparison is noted."""
+    from conftest import WORKFLOWS
+
+    res = run_workflow(WORKFLOWS / "double_pendulum.yaml", quick=True,
+                       sets=["analyses.swing.max_steps=3"], out_root=tmp_path / "out",
+                       cache_dir=tmp_path / "links")
+    man = json.loads((res.out_dir / "manifest.json").read_text())
+    assert man["status"] == "partial"
+    for f in ("rigid_vs_flexible.png", "rigid_vs_flexible.csv", "angles.png", "swing_rigid.csv",
+              "swing_flexible.npz", "swing_still.png"):
+        assert f in man["files"] and (res.out_dir / f).is_file(), f
+    notes = "\n".join(man["skipped_outputs"])
+    assert "convergence 'rigid_vs_flexible': compared over the common times only" in notes
+    assert "stopped at t = 0 s" in notes
+    cases = {c["case"]: c for c in man["analyses"]["swing"]}
+    assert all("step budget of 3 steps exhausted" in c["message"] for c in cases.values())
+
+
+def test_a_convergence_chart_without_a_finite_difference_says_so(tmp_path):
+    from pipeline.post.study_plot import plot_convergence
+
+    p = plot_convergence(tmp_path / "c.png", ["rigid", "flexible"],
+                         {"q:J1.theta": [np.nan, 0.0], "q:J2.theta": [np.inf, 0.0]},
+                         reference="flexible")
+    assert p.stat().st_size > 1000
