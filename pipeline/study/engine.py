@@ -153,12 +153,23 @@ def run_study(study: str | Path, *, out_root: str | Path = "output", workers: in
     ConfigError
         Bad study or base workflow (named by file and line); distributed not installed.
     """
-    from pipeline.workflow import build_machine, load_workflow
+    from pipeline.workflow.names import check_folder_owner, check_run_folder, run_name
+    from pipeline.workflow.run import output_lock
 
     spec, base = load_study(study)
     out_root = Path(out_root)
-    folder = out_root / spec.name
+    name = run_name(spec.name, Path(study), f"{study}: name")
+    folder = out_root / name
     cache = Path(cache_dir) if cache_dir is not None else out_root / "links"
+    check_run_folder(folder, cache)
+    with output_lock(out_root, name):  # the lock a run of that name takes too
+        check_folder_owner(folder, "study", f"{study}: name")
+        return _study_locked(study, spec, base, folder, cache, workers, scheduler)
+
+
+def _study_locked(study, spec, base, folder, cache, workers, scheduler) -> StudyResult:
+    from pipeline.workflow import build_machine, load_workflow
+
     wf = load_workflow(base, quick=spec.quick)
     if spec.set:
         wf = wf.for_case(spec.set, "study set")
@@ -168,7 +179,7 @@ def run_study(study: str | Path, *, out_root: str | Path = "output", workers: in
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "cases").mkdir(exist_ok=True)
     old = {r["input_hash"]: r for r in _read_rows(folder) if r.get("status") in KEPT}
-    todo = [c for c in cases if c.input_hash not in old or not _case_file(folder, c).is_file()]
+    todo = [c for c in cases if c.input_hash not in old or not _case_intact(folder, c)]
     with stage(f"study {spec.name}: links"):
         machine = build_machine(wf, cache)  # reductions shared by content hash with every case
         for c in todo:
@@ -176,11 +187,16 @@ def run_study(study: str | Path, *, out_root: str | Path = "output", workers: in
                 build_machine(wf.for_case(c.overrides, c.label), cache)
         _check_mode_counts(spec, wf, machine, todo, study)
     world = world_frames(machine, spec, flexible)
-    fresh = _run(spec, base, todo, cache, workers, scheduler, folder, world) if todo else {}
-    rows = []
-    for c in cases:
-        row = fresh.get(c.input_hash) or old.get(c.input_hash)
-        rows.append(row)
+    done = dict(old)
+
+    def finished(c: Case, row: dict) -> None:
+        # the table after every case: a kill loses at most the cases then running
+        done[c.input_hash] = row
+        _write_table(folder, [done[k.input_hash] for k in cases if k.input_hash in done])
+
+    if todo:
+        _run(spec, base, todo, cache, workers, scheduler, folder, world, finished)
+    rows = [done.get(c.input_hash) for c in cases]
     recommendation = recommend(spec, cases, folder) if spec.truncation else {}
     _write_table(folder, rows)
     _write_manifest(folder, spec, base, cases, rows, recommendation)
@@ -281,7 +297,9 @@ def _case_file(folder: Path, c: Case) -> Path:
     return folder / "cases" / f"{c.input_hash[:16]}.npz"
 
 
-def _run(spec, base, todo, cache, workers, scheduler, folder, world=None) -> dict[str, dict]:
+def _run(spec, base, todo, cache, workers, scheduler, folder, world, finished) -> None:
+    """Run ``todo`` on the cluster; each finished case's row goes to ``finished(case,
+    row)`` as it arrives (its series saved first)."""
     try:
         from distributed import Client, LocalCluster, as_completed
     except ImportError:
@@ -311,7 +329,6 @@ def _run(spec, base, todo, cache, workers, scheduler, folder, world=None) -> dic
             submitted = time.perf_counter()
             for k in range(len(todo)):  # the scheduler does not say which has started
                 board.running(k, submitted)
-            fresh: dict[str, dict] = {}
             for fut in as_completed(futures):
                 k = futures[fut]
                 c = todo[k]
@@ -320,9 +337,9 @@ def _run(spec, base, todo, cache, workers, scheduler, folder, world=None) -> dic
                 except Exception as exc:  # noqa: BLE001 - a dead worker (KilledWorker) or any task failure is this case's row
                     res = {"status": "lost", "message": f"{type(exc).__name__}: {exc}",
                            "seconds": float("nan"), "series": {}, "outputs": {}}
-                fresh[c.input_hash] = _row(c, res)
                 if res["status"] in KEPT:
                     _save_case(folder, c, res)
+                finished(c, _row(c, res))
                 board.finished(k, res["status"], res["seconds"])
                 logger.info("study %s: %s: %s in %.1f s (%d of %d cases done)", spec.name,
                             c.label, res["status"], res["seconds"], board.n_done, len(todo))
@@ -331,7 +348,6 @@ def _run(spec, base, todo, cache, workers, scheduler, folder, world=None) -> dic
             client.close()
             if cluster is not None:
                 cluster.close()
-    return fresh
 
 
 def _row(c: Case, res: dict) -> dict:
@@ -438,13 +454,51 @@ def _relative(y: np.ndarray, ref: np.ndarray) -> float:
     return d / scale if scale > 0 else (0.0 if d == 0 else float("inf"))
 
 
+def _set_aside(path: Path, why: str) -> None:
+    """Move a damaged study file out of the way (kept for inspection), with one line."""
+    aside = path.with_name(f"{path.name}.damaged-{time.strftime('%Y%m%d-%H%M%S')}")
+    path.replace(aside)
+    logger.warning("study: %s is damaged (%s); moved to %s, its cases run again", path, why,
+                   aside.name)
+
+
 def _read_rows(folder: Path) -> list[dict]:
+    """The table's rows; a table that cannot be read, or whose rows lack ``input_hash`` or
+    ``status``, is set aside (its cases run again) rather than stop the study."""
     path = folder / "cases.parquet"
     if not path.is_file():
         return []
+    import pyarrow as pa
     import pyarrow.parquet as pq
 
-    return pq.read_table(path).to_pylist()
+    try:
+        rows = pq.read_table(path).to_pylist()
+        bad = next((r for r in rows if not (isinstance(r.get("input_hash"), str)
+                                             and isinstance(r.get("status"), str))), None)
+        if bad is not None:
+            raise ValueError("a row without input_hash and status")
+    except (pa.ArrowException, OSError, ValueError) as exc:
+        _set_aside(path, f"{type(exc).__name__}: {exc}")
+        return []
+    return rows
+
+
+def _case_intact(folder: Path, c: Case) -> bool:
+    """Whether case ``c``'s saved series are there and readable; a damaged file (a
+    truncated write from another tool, a full disk) is set aside and the case runs again."""
+    path = _case_file(folder, c)
+    if not path.is_file():
+        return False
+    import zipfile
+
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            for k in data.files:
+                data[k]
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        _set_aside(path, f"{type(exc).__name__}: {exc}")
+        return False
+    return True
 
 
 def _write_table(folder: Path, rows: list[dict]) -> None:

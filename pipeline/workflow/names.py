@@ -14,7 +14,11 @@ from pathlib import Path
 
 from pipeline.core.errors import ConfigError
 
-__all__ = ["PLAIN_NAME", "RESERVED", "check_run_folder", "planned_files", "run_name", "slug"]
+__all__ = ["PLAIN_NAME", "RESERVED", "check_folder_owner", "check_run_folder", "planned_files",
+           "run_name", "slug"]
+
+#: the file that says what wrote an output folder: a workflow run or a study
+OWNER_FILES = {"run": "manifest.json", "study": "study.json"}
 
 #: a name that is safe as one path component on every platform
 PLAIN_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_\-]*$")
@@ -49,6 +53,18 @@ def check_run_folder(final: Path, cache_dir: Path) -> None:
     if f == c or f in c.parents:
         raise ConfigError(f"the run's folder {final} would replace the reduced-link cache "
                           f"{cache_dir}; rename the workflow or move the cache")
+
+
+def check_folder_owner(folder: Path, owner: str, where: str) -> None:
+    """A workflow run and a study of the same name would share ``output/<name>``: a run
+    replaces its folder whole, a study keeps its table there. Refuse to write into a
+    folder the other kind wrote (``owner``: "run" or "study"; ``where`` names the input)."""
+    other = next(k for k in OWNER_FILES if k != owner)
+    if (folder / OWNER_FILES[other]).is_file() and not (folder / OWNER_FILES[owner]).is_file():
+        what = "a workflow run's results" if other == "run" else "a study's table and cases"
+        raise ConfigError(f"{where}: {folder} holds {what} ({OWNER_FILES[other]}); a {owner} "
+                          f"of the same name would {'replace' if owner == 'run' else 'mix into'}"
+                          f" it; rename the {owner} or move that folder")
 
 
 def planned_files(spec) -> list[tuple[str, tuple]]:

@@ -28,7 +28,7 @@ from pipeline.workflow.analyses import AnalysisResult, run_analysis
 from pipeline.workflow.build import Machine, build_machine
 from pipeline.workflow.link_build import versions
 from pipeline.workflow.load import Workflow, load_workflow
-from pipeline.workflow.names import check_run_folder
+from pipeline.workflow.names import check_folder_owner, check_run_folder
 from pipeline.workflow.series import check_series
 
 logger = logging.getLogger(__name__)
@@ -220,13 +220,15 @@ def _remove_stale(out_root: Path, name: str) -> None:
 
 
 @contextlib.contextmanager
-def _workflow_lock(out_root: Path, name: str):
+def output_lock(out_root: Path, name: str):
+    """The lock on ``out_root/name`` that every run and study of that name takes: a second
+    one is refused at once (ConfigError), not queued."""
     with contextlib.ExitStack() as stack:
         try:  # only the acquisition: a BlockingIOError inside the run is the run's own
             stack.enter_context(folder_lock(out_root, name))
         except BlockingIOError:
-            raise ConfigError(f"{out_root / name}: another run of workflow {name!r} is "
-                              "writing it; wait for that run to finish") from None
+            raise ConfigError(f"{out_root / name}: another run or study named {name!r} is "
+                              "writing it; wait for it to finish") from None
         yield
 
 
@@ -258,7 +260,8 @@ def run_workflow(workflow: str | Path | Workflow, *, out_root: str | Path = "out
     tmp = out_root / f".{wf.name}.partial-{os.getpid()}"
     timings: dict[str, float] = {}
     t_start = time.perf_counter()
-    with _workflow_lock(out_root, wf.name):
+    with output_lock(out_root, wf.name):
+        check_folder_owner(final, "run", f"{wf.path}: name")
         _remove_stale(out_root, wf.name)
         return _run_locked(wf, cache_dir, final, tmp, rebuild, outputs, workers, timings,
                            t_start)
