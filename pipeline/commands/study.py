@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from pipeline.core.errors import ConfigError
+
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("study", type=Path, help="study YAML (see docs/studies.md)")
@@ -16,14 +18,22 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="address of an existing Dask scheduler, e.g. tcp://host:8786")
     parser.add_argument("--links", type=Path, default=None,
                         help="reduced-link cache shared with the workers (default <out>/links)")
+    parser.add_argument("--worker-timeout", type=float, default=None, metavar="SECONDS",
+                        help="end the cases left as 'lost' once the cluster has had no worker "
+                             "for this long (default 120)")
 
 
 def run(args: argparse.Namespace) -> int:
     from pipeline.study.engine import run_study
     from pipeline.study.spec import mode_text
 
+    from pipeline.study.engine import WORKER_TIMEOUT
+
+    timeout = WORKER_TIMEOUT if args.worker_timeout is None else args.worker_timeout
+    if not timeout > 0:
+        raise ConfigError(f"--worker-timeout: expected seconds > 0, got {args.worker_timeout}")
     res = run_study(args.study, out_root=args.out, workers=max(1, args.workers),
-                    scheduler=args.scheduler, cache_dir=args.links)
+                    scheduler=args.scheduler, cache_dir=args.links, worker_timeout=timeout)
     print(f"{res.folder.name}: {len(res.rows)} cases ({res.ran} run now, "
           f"{len(res.rows) - res.ran} from the table) -> {res.folder}")
     for r in res.rows:

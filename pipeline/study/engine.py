@@ -18,6 +18,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import time
@@ -37,6 +38,9 @@ logger = logging.getLogger(__name__)
 
 #: rows with these statuses are results; the others (error, lost) are run again
 KEPT = ("ok", "suspect", "partial")
+
+#: seconds a study waits while its cluster has no worker before the cases left are lost
+WORKER_TIMEOUT = 120.0
 
 
 @dataclass(frozen=True)
@@ -137,7 +141,8 @@ def _reduce(v: np.ndarray, how: str) -> float:
 
 
 def run_study(study: str | Path, *, out_root: str | Path = "output", workers: int = 2,
-              scheduler: str | None = None, cache_dir: str | Path | None = None) -> StudyResult:
+              scheduler: str | None = None, cache_dir: str | Path | None = None,
+              worker_timeout: float = WORKER_TIMEOUT) -> StudyResult:
     """Run the cases of ``study`` that the table does not hold yet; write the table, the
     recommendation and the manifest into ``out_root/<study name>/``.
 
@@ -147,6 +152,8 @@ def run_study(study: str | Path, *, out_root: str | Path = "output", workers: in
     scheduler : address of an existing Dask scheduler (``tcp://host:8786``).
     cache_dir : reduced-link cache, shared with the workers (default
         ``<out_root>/links``; with a remote cluster it must be on a shared filesystem).
+    worker_timeout : seconds the study waits while the cluster has no worker at all
+        before the cases left are ``lost`` (an external cluster whose workers died).
 
     Raises
     ------
@@ -164,10 +171,12 @@ def run_study(study: str | Path, *, out_root: str | Path = "output", workers: in
     check_run_folder(folder, cache)
     with output_lock(out_root, name):  # the lock a run of that name takes too
         check_folder_owner(folder, "study", f"{study}: name")
-        return _study_locked(study, spec, base, folder, cache, workers, scheduler)
+        return _study_locked(study, spec, base, folder, cache, workers, scheduler,
+                             worker_timeout)
 
 
-def _study_locked(study, spec, base, folder, cache, workers, scheduler) -> StudyResult:
+def _study_locked(study, spec, base, folder, cache, workers, scheduler,
+                  worker_timeout) -> StudyResult:
     from pipeline.workflow import build_machine, load_workflow
 
     wf = load_workflow(base, quick=spec.quick)
@@ -195,7 +204,8 @@ def _study_locked(study, spec, base, folder, cache, workers, scheduler) -> Study
         _write_table(folder, [done[k.input_hash] for k in cases if k.input_hash in done])
 
     if todo:
-        _run(spec, base, todo, cache, workers, scheduler, folder, world, finished)
+        _run(spec, base, todo, cache, workers, scheduler, folder, world, finished,
+             worker_timeout)
     rows = [done.get(c.input_hash) for c in cases]
     recommendation = recommend(spec, cases, folder) if spec.truncation else {}
     _write_table(folder, rows)
@@ -297,11 +307,42 @@ def _case_file(folder: Path, c: Case) -> Path:
     return folder / "cases" / f"{c.input_hash[:16]}.npz"
 
 
-def _run(spec, base, todo, cache, workers, scheduler, folder, world, finished) -> None:
-    """Run ``todo`` on the cluster; each finished case's row goes to ``finished(case,
-    row)`` as it arrives (its series saved first)."""
+class _OneLine(logging.Filter):
+    """distributed's records as one line: its tracebacks (a scheduler dying, a cluster
+    shutting down under load) are shown only with ``--debug``."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if logging.getLogger().getEffectiveLevel() > logging.DEBUG:
+            record.exc_info = record.exc_text = record.stack_info = None
+        return True
+
+
+@contextlib.contextmanager
+def _quiet_distributed():
+    """For the study's span: distributed's loggers at this process's level (its cluster's
+    life is logged at INFO) and one line per record; restored after."""
+    log = logging.getLogger("distributed")
+    level, one_line = log.level, _OneLine()
+    log.setLevel(max(logging.WARNING, logging.getLogger().getEffectiveLevel()))
+    handlers = [h for h in logging.getLogger().handlers] + log.handlers
+    for h in handlers:
+        h.addFilter(one_line)
     try:
-        from distributed import Client, LocalCluster, as_completed
+        yield
+    finally:
+        log.setLevel(level)
+        for h in handlers:
+            h.removeFilter(one_line)
+
+
+def _run(spec, base, todo, cache, workers, scheduler, folder, world, finished,
+         worker_timeout: float = WORKER_TIMEOUT) -> None:
+    """Run ``todo`` on the cluster; each finished case's row goes to ``finished(case,
+    row)`` as it arrives (its series saved first). A cluster left without a worker for
+    ``worker_timeout`` s (an external one whose workers died) ends the cases left as
+    ``lost``, with that reason, instead of waiting for ever."""
+    try:
+        from distributed import Client, LocalCluster, wait
     except ImportError:
         raise ConfigError("studies need dask.distributed: pip install 'dask[distributed]'") \
             from None
@@ -310,10 +351,7 @@ def _run(spec, base, todo, cache, workers, scheduler, folder, world, finished) -
     outs = [o.model_dump() for o in spec.outputs]
     where = scheduler or f"a local cluster of {workers} processes"
     cluster = None
-    # distributed logs its cluster's life at INFO: keep it at this process's level
-    logging.getLogger("distributed").setLevel(max(logging.WARNING,
-                                                  logging.getLogger().getEffectiveLevel()))
-    with stage(f"study {spec.name}: {len(todo)} cases on {where}"):
+    with _quiet_distributed(), stage(f"study {spec.name}: {len(todo)} cases on {where}"):
         if scheduler is None:
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                    dashboard_address=None)
@@ -329,14 +367,10 @@ def _run(spec, base, todo, cache, workers, scheduler, folder, world, finished) -
             submitted = time.perf_counter()
             for k in range(len(todo)):  # the scheduler does not say which has started
                 board.running(k, submitted)
-            for fut in as_completed(futures):
-                k = futures[fut]
+            pending, alone_since = set(futures), None
+
+            def record(k: int, res: dict) -> None:
                 c = todo[k]
-                try:
-                    res = fut.result()
-                except Exception as exc:  # noqa: BLE001 - a dead worker (KilledWorker) or any task failure is this case's row
-                    res = {"status": "lost", "message": f"{type(exc).__name__}: {exc}",
-                           "seconds": float("nan"), "series": {}, "outputs": {}}
                 if res["status"] in KEPT:
                     _save_case(folder, c, res)
                 finished(c, _row(c, res))
@@ -344,10 +378,40 @@ def _run(spec, base, todo, cache, workers, scheduler, folder, world, finished) -
                 logger.info("study %s: %s: %s in %.1f s (%d of %d cases done)", spec.name,
                             c.label, res["status"], res["seconds"], board.n_done, len(todo))
                 board.show(time.perf_counter())
+
+            while pending:
+                try:
+                    done = wait(list(pending), timeout=2.0, return_when="FIRST_COMPLETED").done
+                except TimeoutError:
+                    done = set()
+                for fut in done:
+                    pending.discard(fut)
+                    try:
+                        res = fut.result()
+                    except Exception as exc:  # noqa: BLE001 - a dead worker (KilledWorker) or any task failure is this case's row
+                        res = _lost(f"{type(exc).__name__}: {exc}")
+                    record(futures[fut], res)
+                if done or not pending:
+                    continue
+                if client.scheduler_info().get("workers"):
+                    alone_since = None
+                    continue
+                alone_since = alone_since or time.monotonic()
+                if time.monotonic() - alone_since > worker_timeout:
+                    for fut in sorted(pending, key=futures.get):
+                        fut.cancel()
+                        record(futures[fut], _lost(
+                            f"the cluster had no worker for {worker_timeout:g} s"))
+                    pending.clear()
         finally:
             client.close()
             if cluster is not None:
                 cluster.close()
+
+
+def _lost(why: str) -> dict:
+    return {"status": "lost", "message": why, "seconds": float("nan"), "series": {},
+            "outputs": {}}
 
 
 def _row(c: Case, res: dict) -> dict:

@@ -123,3 +123,54 @@ def test_a_damaged_table_or_case_file_is_set_aside_and_rerun(tmp_path, links, ca
     assert len(list(folder.glob("cases.parquet.damaged-*"))) >= 1
     np.testing.assert_array_equal([r["out:peak_heave"] for r in res.rows],
                                   [r["out:peak_heave"] for r in first.rows])
+
+
+def test_an_external_cluster_without_workers_ends_its_cases_lost(tmp_path, links):
+    """The only worker of an external cluster dies: the study waited for ever, silently.
+    Now the cases left come back 'lost' once the cluster has had no worker for the
+    timeout, and the rerun on a live cluster runs exactly those."""
+    import threading
+
+    from test_study import _cluster, _stop
+
+    study = _study(tmp_path, ANGLES[:3])
+    address, sched, workers = _cluster(tmp_path, n_workers=1)
+    _stop(workers)  # the only worker gone before the cases are submitted
+    out: dict = {}
+    th = threading.Thread(target=lambda: out.setdefault("res", run_study(
+        study, out_root=tmp_path / "out", scheduler=address, cache_dir=links,
+        worker_timeout=3.0)))
+    t0 = time.time()
+    th.start()
+    th.join(timeout=120)
+    try:
+        assert not th.is_alive(), "the study still waits"
+    finally:
+        _stop([sched])
+    res = out["res"]
+    assert time.time() - t0 < 120
+    assert [r["status"] for r in res.rows] == ["lost"] * 3
+    assert all(r["message"] == "the cluster had no worker for 3 s" for r in res.rows)
+    again = run_study(study, out_root=tmp_path / "out", workers=1, cache_dir=links)
+    assert again.ran == 3 and [r["status"] for r in again.rows] == ["ok"] * 3
+
+
+def test_distributed_tracebacks_are_one_line_without_debug(caplog):
+    import logging
+
+    from pipeline.study.engine import _quiet_distributed
+
+    log = logging.getLogger("distributed.scheduler")
+    handler = logging.StreamHandler()
+    logging.getLogger().addHandler(handler)
+    try:
+        with _quiet_distributed(), caplog.at_level(logging.WARNING):
+            try:
+                raise RuntimeError("scheduler gone")
+            except RuntimeError:
+                log.error("the scheduler closed", exc_info=True)
+    finally:
+        logging.getLogger().removeHandler(handler)
+    rec = [r for r in caplog.records if r.getMessage() == "the scheduler closed"]
+    assert rec and rec[0].exc_info is None
+    assert not handler.filters  # restored
