@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import re
 import logging
 import time
 from dataclasses import dataclass
@@ -181,7 +182,7 @@ def _study_locked(study, spec, base, folder, cache, workers, scheduler,
 
     wf = load_workflow(base, quick=spec.quick)
     if spec.set:
-        wf = wf.for_case(spec.set, "study set")
+        wf = _with_set(wf, spec.set, study)
     _check_names(spec, wf, study)
     flexible = [n for n, e in wf.spec.links.items() if e.type == "flexible"]
     cases = study_cases(spec, base, flexible, _inputs(wf))
@@ -279,6 +280,27 @@ def world_frames(machine, spec, flexible) -> dict[str, list[str]]:
     mech = machine.mechanism
     return {link: [f.name for f in mech.links[mech.link_index(link)].frames
                    if f.name != "body"] for link in flexible}
+
+
+def _with_set(wf, overrides: dict, study) -> Any:
+    """The base workflow with the study's ``set:``; an override it refuses is named at its
+    own line of the study file (not the base workflow's)."""
+    from pipeline.workflow.yaml_io import load_yaml
+
+    try:
+        return wf.for_case(overrides, "study set")
+    except ConfigError:
+        lines = load_yaml(study)[1]
+        for key, value in overrides.items():
+            try:
+                wf.for_case({key: value}, "study set")
+            except ConfigError as exc:
+                # the base workflow's first line of it, without its file:line: path
+                detail = str(exc).splitlines()[0].split(": case 'study set': ", 1)[-1]
+                detail = re.sub(r"^.*?:\d+: [\w.\[\]-]+: ", "", detail)
+                raise ConfigError(f"{study}:{lines.get(('set', key), lines.get(('set',), 1))}"
+                                  f": set.{key}: {detail}") from None
+        raise
 
 
 def _check_mode_counts(spec, wf, machine, cases, study) -> None:

@@ -9,6 +9,7 @@ quick and a full run, or two workflows, never overwrite each other's artifacts.
 from __future__ import annotations
 
 import dataclasses
+import logging
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -20,6 +21,7 @@ from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.dynamics import BodyMass, System, body_from_reduced
 from pipeline.dynamics.bodies import FrameView, frame_views, in_plane_modes
 from pipeline.dynamics.forces import FORCES
+from pipeline.dynamics.inertia_check import motion_without_inertia
 from pipeline.kinematics import Joint, build_mechanism, evaluate_tree, rigid_link
 from pipeline.kinematics.drivers import driver_from_dict
 from pipeline.kinematics.initial import initial_positions, initial_velocities, reach
@@ -29,8 +31,10 @@ from pipeline.workflow.link_spec import LinkSpec
 from pipeline.workflow.load import Workflow
 from pipeline.workflow.model_checks import basis_warnings, held_mode_notes
 from pipeline.workflow.overrides import apply_overrides
-from pipeline.workflow.schema import MARKER_FIELDS, inertia_matrix
+from pipeline.workflow.schema import MARKER_FIELDS, inertia_matrix, inertia_note
 from pipeline.workflow.yaml_io import _yaml_path, error_lines, error_message, load_yaml
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -206,11 +210,13 @@ def build_links(wf: Workflow, cache_dir: Path, rebuild: bool = False):
     for name, entry in wf.spec.links.items():
         where = wf.where("links", name)
         if entry.type == "ground":
-            frames = {k: frame_pose(f, f"{where}.frames.{k}") for k, f in entry.frames.items()}
+            frames = {k: frame_pose(f, wf.where("links", name, "frames", k))
+                      for k, f in entry.frames.items()}
             links.append(rigid_link(name, frames))
             continue
         if entry.spec is None:  # rigid with given mass properties
-            frames = {k: frame_pose(f, f"{where}.frames.{k}") for k, f in entry.frames.items()}
+            frames = {k: frame_pose(f, wf.where("links", name, "frames", k))
+                      for k, f in entry.frames.items()}
             links.append(rigid_link(name, frames))
             if entry.mass is None:
                 continue  # massless intermediate link
@@ -219,6 +225,10 @@ def build_links(wf: Workflow, cache_dir: Path, rebuild: bool = False):
                 bodies[name] = BodyMass.rigid(entry.mass, com, inertia_matrix(entry.inertia))
             except ConfigError as exc:
                 raise ConfigError(f"{where}: {exc}") from None
+            note = inertia_note(inertia_matrix(entry.inertia))
+            if note:
+                logger.info("%s.inertia: %s; accepted: the machine is checked to have inertia "
+                            "for every motion its joints allow", where, note)
             continue
         red, status = _reduce(wf, name, entry, cache_dir, rebuild)
         plane = getattr(entry, "plane", None)
@@ -437,6 +447,16 @@ def build_machine(wf: Workflow, cache_dir: str | Path = "output/links",
     q0, qd0 = initial_state(wf, mech, drivers)
     forces = build_forces(wf, mech, q0)
     system = System(mech, bodies, wf.spec.gravity, forces=forces, drivers=drivers)
+    coords, moving = motion_without_inertia(system, q0)
+    if coords:
+        where = ("links", moving[0], "inertia") if moving else ("links",)
+        raise wf.error(*where, msg=(
+            f"the machine has no inertia for a motion its joints allow at t = 0: moving "
+            f"{', '.join(coords)} moves {', '.join(repr(n) for n in moving)} without "
+            f"kinetic energy (a link "
+            f"without inertia about an axis a joint lets it turn about, or a massless "
+            f"link a joint lets move); give those links inertia for that motion or "
+            f"hold it with a joint"))
     machine = Machine(wf, system, q0, qd0, parts)
     return dataclasses.replace(machine, model_warnings=basis_warnings(wf, machine),
                                model_notes=held_mode_notes(wf, machine))

@@ -10,6 +10,7 @@ import numpy as np
 from pipeline import __version__
 from pipeline.core.errors import ConfigError
 from pipeline.core.hashing import content_hash
+from pipeline.core.validate import validate_array
 from pipeline.fem.interfaces import InterfaceSpec
 from pipeline.fem.material import Material
 from pipeline.fem.point_masses import PointMass
@@ -34,14 +35,24 @@ def frame_axes(z_axis, x_axis=None) -> np.ndarray:
     >>> np.round(frame_axes([0, 0, 1]), 12).tolist()
     [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
     """
-    z = np.asarray(z_axis, float)
-    z = z / np.linalg.norm(z)
-    x = np.eye(3)[np.argmin(np.abs(z))] if x_axis is None else np.asarray(x_axis, float)
+    z = _direction(z_axis, "z_axis")
+    x = np.eye(3)[np.argmin(np.abs(z))] if x_axis is None else _direction(x_axis, "x_axis")
     x = x - (x @ z) * z
     if np.linalg.norm(x) < 1e-9:
         raise ConfigError("x_axis: expected a direction not parallel to z_axis")
     x /= np.linalg.norm(x)
     return np.column_stack([x, np.cross(z, x), z])
+
+
+def _direction(value, name: str) -> np.ndarray:
+    """A unit (3,) vector along ``value``; scaled by its largest entry first, so that a tiny
+    one (1e-320) is still a direction; zero or not finite is a ConfigError."""
+    v = validate_array(value, (3,), name)
+    big = float(np.abs(v).max())
+    if big == 0.0:
+        raise ConfigError(f"{name}: expected a direction, got the zero vector {v.tolist()}")
+    v = v / big
+    return v / np.linalg.norm(v)
 
 
 def _interface(spec, link: str) -> InterfaceSpec:

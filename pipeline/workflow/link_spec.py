@@ -239,6 +239,7 @@ def locate(message: str, spec: LinkSpec, path: str | Path, lines: dict,
     written = re.search(r"\b(geometry|material|sections|interfaces|markers|point_masses|modes)"
                         r"((?:\[\d+\]|\.\w+)+|(?=:))", message)  # a path, or a key and ':'
     setting = re.search(r"\b(craig_bampton|chord)\b", message)
+    param = re.search(r"\bparams((?:\[\d+\]|\.\w+)+)", message)  # a recipe's own check
     if item:
         field = {"interface": "interfaces", "marker": "markers",
                  "point mass": "point_masses"}[item.group(1)]
@@ -248,6 +249,9 @@ def locate(message: str, spec: LinkSpec, path: str | Path, lines: dict,
     elif written:
         parts = re.findall(r"\[(\d+)\]|\.(\w+)", written.group(2))
         key = (written.group(1), *(int(i) if i else name for i, name in parts))
+    elif param:
+        parts = re.findall(r"\[(\d+)\]|\.(\w+)", param.group(1))
+        key = ("geometry", "params", *(int(i) if i else name for i, name in parts))
     elif setting:  # a reference condition the interfaces do not allow
         key = ("modes", setting.group(1))
     while key and key not in lines:

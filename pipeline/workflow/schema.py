@@ -105,24 +105,37 @@ def inertia_matrix(value) -> np.ndarray:
 
 
 def check_inertia(J: np.ndarray) -> None:
-    """ValueError unless J (3, 3) is a physical inertia tensor about the COM: symmetric,
-    positive definite, principal moments obeying the triangle inequality
-    (I1 + I2 >= I3, equality for a flat plate)."""
+    """ValueError unless J (3, 3) can be an inertia tensor about the COM for some motion:
+    finite, symmetric, no negative principal moment. A zero moment (a thin rod about its
+    axis) and moments that break the triangle inequality (a flywheel's reflected drivetrain
+    inertia about one axis) are modelling idioms, accepted: whether the machine has inertia
+    for every motion its joints allow is checked when it is built
+    (:func:`pipeline.dynamics.inertia_check.motion_without_inertia`)."""
+    if not np.all(np.isfinite(J)):
+        raise ValueError(f"inertia has values that are not finite: {J.tolist()}")
     scale = float(np.abs(J).max())
-    if scale == 0.0:
-        raise ValueError("inertia is all zero; give the moments about the COM (a thin rod "
-                         "still needs a small moment about its axis)")
     if np.abs(J - J.T).max() > 1e-9 * scale:
         raise ValueError(f"inertia is not symmetric: {J.tolist()}")
     moments = np.linalg.eigvalsh(J)
-    if moments[0] <= 1e-12 * scale:
-        raise ValueError(f"inertia is not positive definite: principal moments "
-                         f"{np.round(moments, 12).tolist()} kg m^2 (a thin rod still needs a "
-                         "small moment about its axis)")
+    if moments[0] < -1e-12 * scale:
+        raise ValueError(f"inertia has a negative principal moment: "
+                         f"{np.round(moments, 12).tolist()} kg m^2 (a sign or a product of "
+                         "inertia mixed up?)")
+
+
+def inertia_note(J: np.ndarray) -> str | None:
+    """What an accepted inertia (:func:`check_inertia`) is not, as one clause, or None: no
+    moment about an axis, or principal moments no single rigid body has."""
+    scale = float(np.abs(J).max())
+    moments = np.linalg.eigvalsh(J)
+    if scale == 0.0 or moments[0] <= 1e-12 * scale:
+        return (f"principal moments {np.round(moments, 12).tolist()} kg m^2 give it no inertia "
+                "about an axis (a thin rod, a point mass)")
     if moments[0] + moments[1] < moments[2] * (1.0 - 1e-9):
-        raise ValueError(f"principal moments {np.round(moments, 12).tolist()} kg m^2 break the "
-                         "triangle inequality I1 + I2 >= I3: no body has them (a sign or an "
-                         "axis mixed up?)")
+        return (f"principal moments {np.round(moments, 12).tolist()} kg m^2 break the triangle "
+                "inequality I1 + I2 >= I3: no single rigid body has them (a reflected "
+                "drivetrain inertia about one axis)")
+    return None
 
 
 class DampingSpec(Strict):

@@ -174,3 +174,18 @@ def test_distributed_tracebacks_are_one_line_without_debug(caplog):
     rec = [r for r in caplog.records if r.getMessage() == "the scheduler closed"]
     assert rec and rec[0].exc_info is None
     assert not handler.filters  # restored
+
+
+@pytest.mark.parametrize("override, expect", [
+    ("links.boom.modes: -3", "set.links.boom.modes: Input should be greater than or equal to 0"),
+    ("links.boom.mdoes: 2", "set.links.boom.mdoes: unknown key (misspelt?)")])
+def test_an_error_in_a_studys_set_is_at_the_studys_line(tmp_path, override, expect):
+    """It pointed at the base workflow's line."""
+    p = _study(tmp_path, [-0.8])
+    text = p.read_text().replace("analyses: [release]\n", f"analyses: [release]\nset:\n"
+                                 f"  {override}\n")
+    p.write_text(text)
+    line = text.splitlines().index(f"  {override}") + 1
+    with pytest.raises(ConfigError) as exc:
+        run_study(p, out_root=tmp_path / "out")
+    assert str(exc.value) == f"{p}:{line}: {expect}"

@@ -413,13 +413,11 @@ def test_a_step_beyond_the_step_budget_is_refused_up_front(tmp_path, extra, expe
 # --- physics of the inputs --------------------------------------------------------------------
 
 @pytest.mark.parametrize("inertia, expect", [
-    ("[-0.1, 2.3, 2.3, 0, 0, 0]", "not positive definite"),
-    ("[0, 0, 0, 0, 0, 0]", "all zero"),
-    ("[0.003, 2.3, 2.3, 3.0, 0, 0]", "not positive definite"),
-    ("[1.0, 1.0, 3.0, 0, 0, 0]", "triangle inequality"),
+    ("[-0.1, 2.3, 2.3, 0, 0, 0]", "negative principal moment"),
+    ("[0.003, 2.3, 2.3, 3.0, 0, 0]", "negative principal moment"),
     ("[[1, 0.1, 0], [0.2, 1, 0], [0, 0, 1]]", "not symmetric"),
 ])
-def test_a_rigid_inertia_no_body_can_have_is_refused(tmp_path, inertia, expect):
+def test_a_rigid_inertia_no_motion_can_have_is_refused(tmp_path, inertia, expect):
     text = FOURBAR.replace("inertia: [0.003, 2.3, 2.3, 0, 0, 0]", f"inertia: {inertia}")
     assert text != FOURBAR
     path = _write(tmp_path, text)
@@ -428,9 +426,113 @@ def test_a_rigid_inertia_no_body_can_have_is_refused(tmp_path, inertia, expect):
     assert str(exc.value).startswith(f"{path}:") and "links.coupler" in str(exc.value)
 
 
-def test_a_thin_plate_meets_the_triangle_inequality_with_equality(tmp_path):
-    text = FOURBAR.replace("inertia: [0.003, 2.3, 2.3, 0, 0, 0]", "inertia: [1.0, 2.0, 3.0, 0, 0, 0]")
+@pytest.mark.parametrize("inertia", ["[1.0, 2.0, 3.0, 0, 0, 0]", "[0, 0, 0, 0, 0, 0]",
+                                     "[1.0, 1.0, 3.0, 0, 0, 0]", "[0, 2.3, 2.3, 0, 0, 0]"])
+def test_thin_plates_rods_point_masses_and_reflected_inertias_load(tmp_path, inertia):
+    text = FOURBAR.replace("inertia: [0.003, 2.3, 2.3, 0, 0, 0]", f"inertia: {inertia}")
     load_workflow(_write(tmp_path, text))
+
+
+# a four-bar swinging under gravity: thin-rod coupler and rocker (no moment about their
+# axes), a crank carrying a flywheel's reflected inertia about its pin (breaks the
+# triangle inequality); crank 1, coupler 3, rocker 2, ground 3.5 m
+SWING = FOURBAR.replace("inertia: [0.001, 0.1, 0.1, 0, 0, 0]", "inertia: [0.02, 0.02, 1.0066, 0, 0, 0]") \
+    .replace("inertia: [0.003, 2.3, 2.3, 0, 0, 0]", "inertia: [0, 2.25, 2.25, 0, 0, 0]") \
+    .replace("inertia: [0.002, 0.7, 0.7, 0, 0, 0]", "inertia: [0, 0.6666666666666666, 0.6666666666666666, 0, 0, 0]") \
+    .replace("drivers:\n  JA.theta: {type: ramp, t0: 0.0, rate: 6.283185307179586, v0: 1.0}\n", "") \
+    .replace("""    type: kinematic
+    t_end: 1.0
+    outputs: 73
+    markers: [coupler.C]
+    cases:
+      - {label: slow, set: {}}
+      - {label: fast, set: {drivers.JA.theta.rate: 12.566370614359172}}""", """    type: dynamic
+    t_end: 1.0
+    outputs: 51
+    rtol: 1.0e-10
+    atol: 1.0e-12""") + "initial:\n  coordinates: {JA.theta: 1.0}\n"
+
+
+def _four_bar_swing(t):
+    """The same four-bar in its crank angle alone, from the closed-form kinematics
+    (tests/kinematics/closed_form.py) by virtual power: sum over the bars of
+    (m a_c + m g) . dc/dtheta2 + I alpha dphi/dtheta2 = 0, integrated by scipy."""
+    from closed_form import four_bar as fb
+    from scipy.integrate import solve_ivp
+
+    a, b, c, d, g = 1.0, 3.0, 2.0, 3.5, 9.81
+    m, inertia = (1.0, 3.0, 2.0), (1.0066, 2.25, 2.0 / 3.0)
+
+    def kin(t2, w2, al2):
+        """[(com acceleration (2,), angular acceleration)] of crank, coupler, rocker."""
+        s = fb(t2, w2, al2, a, b, c, d)
+        e = lambda th: np.array([np.cos(th), np.sin(th)])  # noqa: E731
+        n = lambda th: np.array([-np.sin(th), np.cos(th)])  # noqa: E731
+        crank = 0.5 * a * (al2 * n(t2) - w2 ** 2 * e(t2))
+        coupler = a * (al2 * n(t2) - w2 ** 2 * e(t2)) + 0.5 * b * (
+            s.theta3_dd * n(s.theta3) - s.theta3_d ** 2 * e(s.theta3))
+        rocker = 0.5 * c * (s.theta4_dd * n(s.theta4) - s.theta4_d ** 2 * e(s.theta4))
+        return [(crank, al2), (coupler, s.theta3_dd), (rocker, s.theta4_dd)]
+
+    def rhs(_, y):
+        t2, w2 = y
+        s1 = fb(t2, 1.0, 0.0, a, b, c, d)  # velocities per unit crank rate
+        jc = [0.5 * a * np.array([-np.sin(t2), np.cos(t2)]),
+              a * np.array([-np.sin(t2), np.cos(t2)]) + 0.5 * b * s1.theta3_d * np.array(
+                  [-np.sin(s1.theta3), np.cos(s1.theta3)]),
+              0.5 * c * s1.theta4_d * np.array([-np.sin(s1.theta4), np.cos(s1.theta4)])]
+        jphi = [1.0, float(s1.theta3_d), float(s1.theta4_d)]
+        bias = kin(t2, w2, 0.0)
+        mass = sum(mi * jci @ jci + ii * jp ** 2 for mi, ii, jci, jp in zip(m, inertia, jc, jphi))
+        force = sum(-mi * (ac + np.array([0.0, g])) @ jci - ii * al * jp
+                    for mi, ii, jci, jp, (ac, al) in zip(m, inertia, jc, jphi, bias))
+        return [w2, force / mass]
+
+    sol = solve_ivp(rhs, (t[0], t[-1]), [1.0, 0.0], t_eval=t, method="DOP853", rtol=1e-12,
+                    atol=1e-12)
+    return sol.y[0]
+
+
+def test_thin_rods_and_a_reflected_inertia_run_and_match_minimal_coordinates(tmp_path, caplog):
+    """Issue 26, seen 2: thin rods without axial inertia and a flywheel's reflected inertia
+    were refused ("not positive definite", "triangle inequality"). The joints never turn
+    them about the axes that lack inertia, so the machine has inertia for every motion it
+    allows: both load and run, and the crank angle equals a hand-written one-degree-of-
+    freedom model within 1e-7 rad over 1 s."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "kinematics"))
+    path = _write(tmp_path, SWING)
+    with caplog.at_level(logging.INFO, logger="pipeline.workflow.build"):
+        res = run_workflow(path, out_root=tmp_path / "out", cache_dir=tmp_path / "links",
+                           outputs=False)
+    assert any("links.crank.inertia" in m and "triangle inequality" in m and "accepted" in m
+               for m in caplog.messages)
+    (r,) = res.results["turn"]
+    assert r.verdict == "ok", r.warnings
+    ref = _four_bar_swing(r.t)
+    got = r.q[:, list(r.coordinates).index("JA.theta")]
+    assert np.ptp(ref) > 0.5  # it swings
+    np.testing.assert_allclose(got, ref, atol=1e-7)
+
+
+def test_a_motion_without_inertia_is_refused_at_the_build_naming_it(tmp_path):
+    """A thin pin (no moment about its axis, its centre on that axis) on a revolute that
+    spins it about its own axis: the machine has no inertia for that motion, and the build
+    says which coordinate and which link, at the link's inertia line."""
+    text = SWING.replace("{name: JD, type: revolute, parent: ground.D, child: rocker.D, "
+                         "initial: [1.9]}",
+                         "{name: JD, type: revolute, parent: ground.D, child: rocker.D, "
+                         "initial: [1.9]}\n  - {name: SPIN, type: revolute, parent: rocker.C, "
+                         "child: pin.A}")
+    text = text.replace("  rocker:\n", "  pin:\n    type: rigid\n    mass: 0.5\n"
+                        "    com: [0, 0, 0]\n    inertia: [0, 0.001, 0.001, 0, 0, 0]\n"
+                        "    frames: {A: {origin: [0, 0, 0], z: [1, 0, 0]}}\n  rocker:\n")
+    path = _write(tmp_path, text)
+    with pytest.raises(ConfigError) as exc:
+        run_workflow(path, out_root=tmp_path / "out", cache_dir=tmp_path / "links",
+                     outputs=False)
+    msg = str(exc.value)
+    assert "no inertia for a motion its joints allow" in msg and "SPIN.theta" in msg
+    assert "links.pin.inertia" in msg and "\n" not in msg
 
 
 # --- partial results --------------------------------------------------------------------------
@@ -730,3 +832,46 @@ def test_a_convergence_chart_without_a_finite_difference_says_so(tmp_path):
                          {"q:J1.theta": [np.nan, 0.0], "q:J2.theta": [np.inf, 0.0]},
                          reference="flexible")
     assert p.stat().st_size > 1000
+
+
+# --- strict numbers, every error at its own line (issue 26, seen 6) ---------------------------
+
+@pytest.mark.parametrize("value, what", [("true", "True (a boolean)"),
+                                         ("'0.008'", "'0.008' (str)")])
+def test_a_recipe_parameter_must_be_a_number_at_its_own_line(tmp_path, capsys, value, what):
+    """``geometry.params.b: true`` built a 1 m wide bar and ``'0.008'`` was read as a
+    number; both are refused, at the parameter's line."""
+    from pipeline.cli import main
+
+    root = Path(__file__).resolve().parents[2]
+    text = (root / "meshes" / "al_bar.yaml").read_text().replace(
+        "  params: {L: 0.4, b: 0.008, h: 0.004}", f"  params:\n    L: 0.4\n    b: {value}\n"
+                                                  f"    h: 0.004")
+    p = tmp_path / "bar.yaml"
+    p.write_text(text)
+    assert main(["reduce", str(p)]) == 2
+    err = capsys.readouterr().err.strip()
+    line = text.splitlines().index(f"    b: {value}") + 1
+    assert err.startswith(f"error: {p}:{line}: geometry.params.b: "), err
+    assert f"params.b: expected a number, got {what}" in err
+
+
+@pytest.mark.parametrize("axis", ["[0, 0, 0]", "[0.0, 0.0, 0.0]"])
+def test_a_zero_frame_axis_is_one_line_at_the_frame(tmp_path, capsys, axis):
+    """It printed numpy's RuntimeWarnings and a four-line array of NaN without file:line."""
+    import warnings
+
+    from pipeline.cli import main
+
+    text = FOURBAR.replace("D: {origin: [3.5, 0, 0]}", f"D: {{origin: [3.5, 0, 0], z: {axis}}}")
+    p = _write(tmp_path, text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no RuntimeWarning on the way
+        assert main(["validate", str(p), "--build"]) == 2
+    err = capsys.readouterr().err.strip()
+    line = next(i for i, t in enumerate(text.splitlines(), 1) if "D: {origin" in t)
+    assert err == (f"error: {p}:{line}: links.ground.frames.D: z_axis: expected a direction, "
+                   "got the zero vector [0.0, 0.0, 0.0]")
+    from pipeline.workflow.link_build import frame_axes
+
+    np.testing.assert_allclose(frame_axes([1e-320, 0, 0])[:, 2], [1.0, 0.0, 0.0])
