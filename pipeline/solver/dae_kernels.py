@@ -20,6 +20,7 @@ from numba import njit
 
 from pipeline.dynamics.compiled import _kernel as _inertia
 from pipeline.kinematics.compiled import _kernel as _kinematics
+from pipeline.solver.generalized_alpha import NEWTON_SHARE
 
 __all__ = ["kin_tuple", "march", "mass_tuple", "output", "step", "terms"]
 
@@ -349,7 +350,7 @@ def step(q0, v0, qdd0, a0, lam0, h, qP, vP, aP, factor, par, unit, U, P, S, sinf
         for kk in range(nU):
             i = U[kk]
             eloc = abs((beta - 1.0 / 6.0) * h * h * (qdd[i] - qdd0[i]))
-            tl = min(tol[kk], max(0.01 * eloc, 1e-14 * (abs(q[i]) + unit[i])))
+            tl = min(tol[kk], max(NEWTON_SHARE * eloc, 1e-14 * (abs(q[i]) + unit[i])))
             norm = max(norm, abs(x[kk]) / tl)
             user = max(user, abs(x[kk]) / tol[kk])
         theta = norm / prev if prev > 0 else 0.0

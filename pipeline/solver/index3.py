@@ -41,7 +41,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from pipeline.solver.constrained import REGULARISATION, ConstrainedState, ConstrainedSystem
-from pipeline.solver.generalized_alpha import coefficients
+from pipeline.solver.generalized_alpha import NEWTON_SHARE, coefficients
 
 __all__ = ["Index3Stepper", "StepOutcome", "StepState"]
 
@@ -211,12 +211,12 @@ class Index3Stepper:
             # the error left after this correction: |dq| theta / (1 - theta) for a contraction
             # theta (a modified Newton converges linearly: a small correction alone does not
             # mean a small error), judged against tol
-            # ... and against 1 % of the step's local error estimate: Newton errors
+            # ... and against NEWTON_SHARE of the step's local error estimate: Newton errors
             # accumulate over the steps, truncation errors of O(h^3) per step do too, and the
             # former must stay below the latter for the method to keep its order as h -> 0
             e_loc = np.abs((beta - 1.0 / 6.0) * h * h * (qdd - s0.qdd)[U])
             floor = 1e-14 * (np.abs(q[U]) + self.unit[U])
-            tol_it = np.minimum(tol, np.maximum(0.01 * e_loc, floor))
+            tol_it = np.minimum(tol, np.maximum(NEWTON_SHARE * e_loc, floor))
             norm = float(np.abs(dq / tol_it).max(initial=0.0))
             theta = norm / prev if prev else 0.0
             if theta >= 1.0 and it >= 2 and not refreshed:
