@@ -12,6 +12,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline, PchipInterpolator
 
 from pipeline.core.errors import ConfigError
+from pipeline.core.input_files import MAX_TABLE_BYTES, input_file
 from pipeline.kinematics.driver_base import Driver, check_keys, finite_float, out
 
 __all__ = ["Table", "load_table_csv"]
@@ -108,6 +109,10 @@ class Table(Driver):
             path = Path(d["file"])
             if base_dir is not None and not path.is_absolute():
                 path = Path(base_dir) / path
+            try:
+                input_file(path, "table file", MAX_TABLE_BYTES)
+            except ConfigError as exc:
+                raise ConfigError(f"{where}.file: {exc}") from None
             t, v = load_table_csv(path)
             return cls(t, v, interp)
         for key in ("times", "values"):
@@ -161,7 +166,7 @@ def load_table_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         Unreadable file; a row without exactly two cells; a non-numeric cell
         (naming file, line and column); non-increasing time; fewer than 2 rows.
     """
-    path = Path(path)
+    path = input_file(path, "table file", MAX_TABLE_BYTES)
     try:
         text = path.read_text(encoding="utf-8-sig")
     except OSError as exc:

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from pipeline.core.errors import ConfigError, MeshError
+from pipeline.core.input_files import MAX_CAD_BYTES, MAX_SCRIPT_BYTES, input_file
 from pipeline.meshing.geo_scan import check_geo_script
 from pipeline.meshing.recipe_params import (
     check_keys,
@@ -276,9 +277,13 @@ def _existing(path: Path | None, where: str, suffixes: tuple[str, ...]) -> Path:
     if path is None:
         raise ConfigError(f"{where}: geometry.path: expected a {'/'.join(suffixes)} file")
     p = Path(path)
-    if not p.is_file():
+    if not p.exists():
         raise MeshError(f"{where}: geometry file not found: {p}")
     if p.suffix.lower() not in suffixes:
         raise ConfigError(f"{where}: geometry.path: expected a {'/'.join(suffixes)} file, "
                           f"got {p.name}")
-    return p
+    limit = MAX_SCRIPT_BYTES if p.suffix.lower() == ".geo" else MAX_CAD_BYTES
+    try:
+        return input_file(p, "geometry file", limit)
+    except ConfigError as exc:
+        raise ConfigError(f"{where}: geometry.path: {exc}") from None

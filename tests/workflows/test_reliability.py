@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -875,3 +876,66 @@ def test_a_zero_frame_axis_is_one_line_at_the_frame(tmp_path, capsys, axis):
     from pipeline.workflow.link_build import frame_axes
 
     np.testing.assert_allclose(frame_axes([1e-320, 0, 0])[:, 2], [1.0, 0.0, 0.0])
+
+
+# --- bounded inputs (issue 26, seen 5) --------------------------------------------------------
+
+@pytest.mark.parametrize("script, line, expect", [
+    ("// many points\nFor i In {1:1e12}\n  Point(i) = {i, 0, 0};\nEndFor\n", 2,
+     "a For loop of 1e+12 passes (at most 1e+06)"),
+    ("For (1:10:0)\nEndFor\n", 1, "a For loop with a zero step never ends"),
+    ("Macro Grow\n  Call Shrink;\nReturn\nMacro Shrink\n  Call Grow;\nReturn\nCall Grow;\n", 1,
+     "macro 'Grow' calls itself"),
+    ('w = GetValue("width?", 1);\n', 1, "the .geo command 'GetValue' is not allowed"),
+])
+def test_a_gmsh_script_that_would_not_end_is_refused_before_gmsh_runs(tmp_path, script, line,
+                                                                      expect):
+    p = tmp_path / "s.geo"
+    p.write_text(script)
+    with pytest.raises(MeshError, match=re.escape(f"{p}:{line}: {expect}")):
+        check_geo_script(p)
+
+
+def test_a_short_literal_loop_passes_the_scan(tmp_path):
+    p = tmp_path / "s.geo"
+    p.write_text("For i In {1:100:0.5}\n  x = i;\nEndFor\n// For i In {1:1e12} in a comment\n")
+    check_geo_script(p)
+
+
+@pytest.mark.parametrize("target", ["/dev/zero", "fifo", "folder"])
+def test_a_driver_table_that_is_not_a_regular_file_is_one_line(tmp_path, target):
+    """A table at /dev/zero was read for ever."""
+    if target == "fifo":
+        os.mkfifo(tmp_path / "t.csv")
+        target = str(tmp_path / "t.csv")
+    elif target == "folder":
+        target = str(tmp_path)
+    text = FOURBAR.replace("JA.theta: {type: ramp, t0: 0.0, rate: 6.283185307179586, v0: 1.0}",
+                           f"JA.theta: {{type: table, file: {target}}}")
+    p = _write(tmp_path, text)
+    line = next(i for i, t in enumerate(text.splitlines(), 1) if "type: table" in t)
+    with pytest.raises(ConfigError) as exc:
+        from pipeline.workflow import build_machine
+
+        build_machine(load_workflow(p), tmp_path / "links")
+    assert str(exc.value) == (f"{p}:{line}: drivers.JA.theta.file: {target}: the table file is "
+                              "not a regular file (a device, a pipe or a folder); give a file")
+
+
+def test_cad_and_tables_beyond_their_size_and_recipe_lengths_beyond_range_are_refused(
+        tmp_path, monkeypatch):
+    """A 600 MB STEP file was imported for minutes; a point at 1e30 m built a 1e30 m plate
+    in OCC before the mesh budget looked at it."""
+    import pipeline.core.input_files as inp
+    from pipeline.core.input_files import input_file
+
+    big = tmp_path / "big.step"
+    with open(big, "wb") as fh:
+        fh.truncate(inp.MAX_CAD_BYTES + 1)  # sparse: no disk used
+    with pytest.raises(ConfigError, match=r"the CAD file is 100.0 MB; at most 100 MB is read"):
+        input_file(big, "CAD file", inp.MAX_CAD_BYTES)
+    from pipeline.meshing.gmsh_build import check_extent
+
+    with pytest.raises(ConfigError, match=r"params.points\[1\]\[0\]: 1e\+30 m is beyond"):
+        check_extent({"points": [[0.0, 0.0], [1e30, 0.0]], "width": 0.1}, 0.01, "link 'x'")
+    check_extent({"points": [[0.0, 0.0], [24.0, 0.0]], "width": 0.1}, 0.01, "link 'x'")
