@@ -24,10 +24,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pipeline.study.engine import run_study
+    from pipeline.study.engine import WORKER_TIMEOUT, run_study
     from pipeline.study.spec import mode_text
-
-    from pipeline.study.engine import WORKER_TIMEOUT
 
     timeout = WORKER_TIMEOUT if args.worker_timeout is None else args.worker_timeout
     if not timeout > 0:

@@ -38,29 +38,17 @@ _WORD = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
 def _tokens(text: str):
     """(line, token) of the script's words and punctuation, comments and strings skipped."""
-    i, n, line = 0, len(text), 1
+    code = _code(text)
+    i, n, line = 0, len(code), 1
     while i < n:
-        c = text[i]
+        c = code[i]
         if c == "\n":
             line += 1
             i += 1
         elif c.isspace():
             i += 1
-        elif text.startswith("//", i):
-            j = text.find("\n", i)
-            i = n if j < 0 else j
-        elif text.startswith("/*", i):
-            j = text.find("*/", i + 2)
-            j = n if j < 0 else j + 2
-            line += text.count("\n", i, j)
-            i = j
-        elif c in "\"'":
-            j = text.find(c, i + 1)
-            j = n if j < 0 else j + 1
-            line += text.count("\n", i, j)
-            i = j
         else:
-            m = _WORD.match(text, i)
+            m = _WORD.match(code, i)
             if m:
                 yield line, m.group()
                 i = m.end()
@@ -159,13 +147,13 @@ def _check_macros(toks, path: Path, tail: str) -> None:
             current = None
         elif tok == "Call" and current is not None and nxt:
             calls[current].add(nxt)
-    for start in calls:
-        seen, todo = set(), list(calls[start])
+    for start, called in calls.items():
+        seen, todo = set(), list(called)
         while todo:
             m = todo.pop()
             if m == start:
                 raise MeshError(f"{path}:{where[start]}: macro {start!r} calls itself (through "
-                                f"{sorted(calls[start])}); gmsh would recurse until it dies"
+                                f"{sorted(called)}); gmsh would recurse until it dies"
                                 f"{tail}")
             if m not in seen:
                 seen.add(m)

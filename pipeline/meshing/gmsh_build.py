@@ -136,7 +136,7 @@ def gmsh_session(name: str) -> Iterator[Any]:
 
 def _build_solid(geometry: SolidGeometry, name: str, options: Mapping[str, float]) -> MeshData:
     where = f"link {name!r}"
-    check_extent(geometry.params, geometry.mesh_size, where)
+    check_extent(geometry.params, where)
     with gmsh_session(name) as gmsh:
         groups = MESH_RECIPES[geometry.recipe](gmsh, geometry.params, geometry.path, where)
         if not gmsh.model.getEntities(3):
@@ -183,21 +183,20 @@ def estimated_dof(volume: float, size: float, order: int) -> float:
 MAX_EXTENT = 1.0e4
 
 
-def check_extent(params, mesh_size: float, where: str, path: str = "params") -> None:
-    """ConfigError for a recipe parameter beyond :data:`MAX_EXTENT` in size, or that many
-    mesh sizes: checked before OCC builds anything (a point at 1e30 m used to build a 1e30 m
-    plate first)."""
+def check_extent(params, where: str, path: str = "params") -> None:
+    """ConfigError for a recipe parameter beyond :data:`MAX_EXTENT`, checked before OCC
+    builds anything (a point at 1e30 m used to build a 1e30 m plate first; the mesh budget,
+    :func:`check_mesh_budget`, needs the built volume)."""
     if isinstance(params, Mapping):
         for k, v in params.items():
-            check_extent(v, mesh_size, where, f"{path}.{k}")
+            check_extent(v, where, f"{path}.{k}")
     elif isinstance(params, (list, tuple)):
         for i, v in enumerate(params):
-            check_extent(v, mesh_size, where, f"{path}[{i}]")
-    elif isinstance(params, (int, float)) and not isinstance(params, bool):
-        if abs(params) > MAX_EXTENT or abs(params) > 1e5 * mesh_size:
-            raise ConfigError(f"{where}: {path}: {params!r} m is beyond the recipe's range "
-                              f"(at most {MAX_EXTENT:g} m and 1e5 mesh sizes, "
-                              f"mesh_size {mesh_size:g} m)")
+            check_extent(v, where, f"{path}[{i}]")
+    elif isinstance(params, (int, float)) and not isinstance(params, bool) and \
+            not abs(params) <= MAX_EXTENT:
+        raise ConfigError(f"{where}: {path}: {params!r} m is beyond the recipes' range "
+                          f"(at most {MAX_EXTENT:g} m)")
 
 
 def check_mesh_budget(volume: float, size: float, order: int, where: str,

@@ -27,7 +27,6 @@ from scipy.integrate import DenseOutput, OdeSolver
 
 from pipeline.core.errors import ConfigError
 
-
 #: a fixed step's Newton iterations stop where the error left in q is below this share of
 #: the step's local truncation error estimate |(beta - 1/6) h^2 (q''_1 - q''_0)|. Newton
 #: errors in q reach the accelerations divided by beta h^2 and add up over the steps; at 1 %

@@ -14,7 +14,6 @@ from pipeline.core.hashing import content_hash
 from pipeline.study.spec import mode_label
 from pipeline.workflow.link_build import REDUCTION_REVISION, versions
 
-
 #: what a truncation case records besides the compared series (2: the world positions of
 #: the truncated link's frames and the machine's lowest frequencies); a change reruns cases
 EVIDENCE_REVISION = 2

@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import contextlib
 import json
-import re
 import logging
+import re
 import time
 from dataclasses import dataclass
 from pathlib import Path

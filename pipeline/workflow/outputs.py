@@ -356,8 +356,8 @@ def write_outputs(folder: Path, wf, machines, results, timings: dict,
     def each(what: str, name: str, draw) -> list:
         try:
             out = draw()
-        except Exception as exc:  # noqa: BLE001 - only for partial runs, re-raised otherwise
-            if not partial or isinstance(exc, (KeyboardInterrupt, MemoryError)):
+        except Exception as exc:  # any drawing failure, but only of a partial run's outputs
+            if not partial or isinstance(exc, MemoryError):
                 raise
             skipped.append(f"{what} {name!r}: not drawn from the partial histories "
                            f"({type(exc).__name__}: {exc})")
