@@ -19,6 +19,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
     parser.add_argument("--render", action="store_true",
                         help="also render the first mode shapes to <out>/<name>_modes.png")
+    parser.add_argument("--convergence", action="store_true",
+                        help="also reduce the link on a mesh twice as coarse and print each "
+                             "frequency's estimated discretisation error")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -38,6 +41,8 @@ def run(args: argparse.Namespace) -> int:
                "cache": status, "mesh_quality": dict(link.meta.get("mesh", {})),
                "effective_mass_fraction": _effective_masses(link),
                "static_coverage": coverage_report(link)}
+    if args.convergence:
+        summary["frequency_convergence"] = _convergence(spec, args, link)
     if args.render:
         from pipeline.post.render import render_modes
 
@@ -90,6 +95,42 @@ def _print_table(s: dict) -> None:
         e.add_row("sum", "", *(_pct(x) for x in np.sum(rows, axis=0)), style="bold")
         con.print(e)
     _print_coverage(con, s["static_coverage"])
+    if "frequency_convergence" in s:
+        _print_convergence(con, s["frequency_convergence"])
+
+
+def _convergence(spec, args, link) -> dict:
+    """The link reduced again with its mesh size doubled (cached under
+    ``<out>/coarse``), and each frequency's estimated discretisation error."""
+    from pipeline.invariants.adequacy import frequency_convergence, mesh_warnings
+    from pipeline.workflow.link_build import reduce_spec
+
+    g = spec.geometry
+    key = "geometry.mesh_size" if g.type == "solid" else "geometry.element_size"
+    size = g.mesh_size if g.type == "solid" else g.element_size
+    field = key.split(".")[1]
+    coarse_spec = spec.model_copy(update={"geometry": g.model_copy(update={field: 2 * size})})
+    coarse, _ = reduce_spec(coarse_spec, args.spec.parent, args.out / "coarse", args.rebuild)
+    rate = 2 if g.type == "solid" and g.order == 1 else 4
+    rows = frequency_convergence(link.frequencies_hz, coarse.frequencies_hz, rate)
+    return {"coarse_size_m": 2 * size, "rate": rate, "rows": rows,
+            "warnings": mesh_warnings(link.name, rows, key)}
+
+
+def _print_convergence(con, conv: dict) -> None:
+    from rich.table import Table
+
+    c = Table(title=f"frequency convergence: the same modes on a mesh twice as coarse "
+                    f"({conv['coarse_size_m']:.4g} m); error estimated as the change / "
+                    f"(2^{conv['rate']} - 1)")
+    for col in ("mode", "Hz", "coarse Hz", "change %", "est. error %"):
+        c.add_column(col, justify="right")
+    for r in conv["rows"]:
+        c.add_row(str(r["mode"]), f"{r['hz']:.6g}", f"{r['coarse_hz']:.6g}",
+                  f"{100 * r['change']:+.3g}", f"{100 * r['error']:+.2g}")
+    con.print(c)
+    for w in conv["warnings"]:
+        con.print(f"[yellow]warning:[/yellow] {w}")
 
 
 def _print_coverage(con, report: dict) -> None:

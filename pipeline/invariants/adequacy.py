@@ -237,3 +237,40 @@ def coverage_report(link, modes=None, directions=DIRECTIONS[:3]) -> dict:
                       "relevant": c.relevant} for c in rows],
             "warnings": coverage_warnings(link.name, rows,
                                           basis_remedy("constraint" in link.mode_kinds))}
+
+
+#: a mode whose estimated discretisation error exceeds this share is reported
+MESH_RTOL = 1e-2
+
+
+def frequency_convergence(fine_hz, coarse_hz, rate: int) -> list[dict]:
+    """Each mode's frequency on a mesh and on one twice as coarse, and its estimated
+    discretisation error, by Richardson extrapolation: an error that falls as h^rate (4
+    for P2 tetrahedra and Hermite beams, whose eigenvalues converge as h^4; 2 for P1) is
+    about (f_coarse - f) / (2^rate - 1) on the finer mesh.
+
+    Returns
+    -------
+    [{"mode", "hz", "coarse_hz", "change", "error"}] (relative to ``hz``), modes matched by
+    order up to the shorter list (a pair of modes that swap places between the meshes
+    shows as two large changes).
+    """
+    fine, coarse = np.asarray(fine_hz, float), np.asarray(coarse_hz, float)
+    out = []
+    for k in range(min(fine.size, coarse.size)):
+        change = (coarse[k] - fine[k]) / fine[k] if fine[k] > 0 else float("nan")
+        out.append({"mode": k, "hz": float(fine[k]), "coarse_hz": float(coarse[k]),
+                    "change": float(change), "error": float(change / (2 ** rate - 1))})
+    return out
+
+
+def mesh_warnings(link_name: str, rows: list[dict], key: str) -> list[str]:
+    """One line (or none) naming the modes whose estimated error exceeds
+    :data:`MESH_RTOL`, with the remedy (``key``: the spec's mesh size field)."""
+    bad = [r for r in rows if abs(r["error"]) > MESH_RTOL]
+    if not bad:
+        return []
+    what = ", ".join(f"mode {r['mode']} ({r['hz']:.4g} Hz) {100 * r['error']:+.2g} %"
+                     for r in bad)
+    return [f"link {link_name!r}: the mesh is not converged for {what} (estimated "
+            f"discretisation error, from a mesh twice as coarse); refine {key}"]
