@@ -272,5 +272,5 @@ def mesh_warnings(link_name: str, rows: list[dict], key: str) -> list[str]:
         return []
     what = ", ".join(f"mode {r['mode']} ({r['hz']:.4g} Hz) {100 * r['error']:+.2g} %"
                      for r in bad)
-    return [f"link {link_name!r}: the mesh is not converged for {what} (estimated "
-            f"discretisation error, from a mesh twice as coarse); refine {key}"]
+    return [(f"link {link_name!r}: the mesh is not converged for {what} (estimated "
+             f"discretisation error, from a mesh twice as coarse); refine {key}")]
