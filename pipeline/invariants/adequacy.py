@@ -180,29 +180,98 @@ def ritz_compliance(G: np.ndarray, K: np.ndarray, w: np.ndarray, held: np.ndarra
     """Compliance (w.u)^2 / energy maximised over the frame motions u = G a of a Ritz model
     (coordinates a, stiffness K (m, m), G (6F, m)) with held @ u = 0.
 
-    (w G Z) (Z^T K Z)^-1 (w G Z)^T, Z the combinations the held rows leave free. A held
-    row that moves a coordinate by less than :data:`HOLD_RTOL` of that coordinate's own
-    largest frame translation holds nothing there (round-off of a mesh that is not quite
-    symmetric is no load path, and must not lock a mode).
+    (w G Z) (Z^T K Z)^-1 (w G Z)^T, Z the combinations the held rows leave free
+    (:func:`free_combinations`).
     """
-    m = K.shape[0]
-    if m == 0:
+    if K.shape[0] == 0:
         return 0.0
-    Z = np.eye(m)
-    if held.size:
-        translations = [k for k in range(G.shape[0]) if k % 6 < 3]
-        size = np.abs(G[translations]).max(axis=0, initial=0.0)
-        # a mode that moves no frame (zero at every frame) is measured against the others
-        size = np.maximum(size, HOLD_RTOL * max(float(size.max(initial=0.0)), 1e-300))
-        # each coordinate measured against its own largest frame motion (the held rows
-        # are per unit frame motion: O(1) where they act, round-off where they do not)
-        _, s, Vt = np.linalg.svd(held @ G / size, full_matrices=True)
-        rank = int(np.sum(s > HOLD_RTOL))
-        Z = (Vt[rank:] / size).T
-        if Z.shape[1] == 0:
-            return 0.0
-    g = w @ G @ Z
+    return _quadratic(w @ G, free_combinations(G, held), K)
+
+
+def free_combinations(G: np.ndarray, held: np.ndarray) -> np.ndarray:
+    """(m, r) the combinations of a Ritz model's m coordinates (frame motions G (6F, m))
+    that the held rows (k, 6F) leave free. A held row that moves a coordinate by less than
+    :data:`HOLD_RTOL` of that coordinate's own largest frame translation holds nothing
+    there (round-off of a mesh that is not quite symmetric is no load path, and must not
+    lock a mode)."""
+    m = G.shape[1]
+    if not held.size or m == 0:
+        return np.eye(m)
+    translations = [k for k in range(G.shape[0]) if k % 6 < 3]
+    size = np.abs(G[translations]).max(axis=0, initial=0.0)
+    # a mode that moves no frame (zero at every frame) is measured against the others
+    size = np.maximum(size, HOLD_RTOL * max(float(size.max(initial=0.0)), 1e-300))
+    # each coordinate measured against its own largest frame motion (the held rows are per
+    # unit frame motion: O(1) where they act, round-off where they do not)
+    _, s, Vt = np.linalg.svd(held @ G / size, full_matrices=True)
+    rank = int(np.sum(s > HOLD_RTOL))
+    return (Vt[rank:] / size).T
+
+
+def _quadratic(load: np.ndarray, Z: np.ndarray, K: np.ndarray) -> float:
+    """The compliance load (Z^T K Z)^-1 load of a Ritz model restricted to Z (m, r); 0 with
+    nothing free."""
+    if Z.shape[1] == 0:
+        return 0.0
+    g = load @ Z
     return float(g @ np.linalg.solve(Z.T @ K @ Z, g))
+
+
+#: the "frame" of the coverage rows that measure a link's own weight and inertia
+BODY_LOAD = "its own weight and inertia"
+
+
+def body_load_coverage(link, modes=None, held: np.ndarray | None = None,
+                       rigid: np.ndarray | None = None) -> list[Coverage]:
+    """Coverage of a link's own weight and inertia (a uniform acceleration along each body
+    axis) by its kept ``modes``: the work of the load on the kept-mode deflection against
+    the full FE model's (its response stored by the reduction), under ``held`` (k, 6F)
+    combinations of the frames' motions (default: the link held at its reference only).
+    [] without the stored response (an artifact made before it was measured).
+
+    ``rigid`` (6F, 3): the load's work over the rigid motion the machine gives the link per
+    unit motion of its frames (:func:`pipeline.workflow.model_checks.machine_conditions`),
+    a load r at the frames added to the distributed one: full model f + G^T r, of work
+    c + 2 r.g + r.C r and frame deflection u = g + C r, under the held rows
+    c_tot - (H u)^T (H C H^T)^+ (H u) (the supports' reactions taking their share); kept
+    modes L'^T Z (Z^T K Z)^-1 Z^T L' with L' = L + G^T r, L = int rho phi dV the modal load
+    of a unit acceleration (C'_a's last row).
+    """
+    fm = frame_motions(link, modes)
+    entry = (link.meta.get("interface_compliance") or {}).get("body_load")
+    if fm is None or not entry:
+        return []
+    _, G, K, C = fm
+    g, c = np.asarray(entry["frames"], dtype=float).reshape(-1, 3), np.asarray(entry["work"])
+    idx = list(range(link.n_modes)) if modes is None else list(modes)
+    L = np.asarray(link.Cp, dtype=float)[idx, 3, :3] if idx else np.zeros((0, 3))
+    H = np.zeros((0, len(C))) if held is None else np.asarray(held, dtype=float)
+    r = np.zeros((len(C), 3)) if rigid is None else np.asarray(rigid, dtype=float)
+    Z = free_combinations(G, H) if K.shape[0] else np.zeros((0, 0))
+    # the held directions of the frames' motions: rows per unit frame motion, O(1) where
+    # they hold, round-off (1e-17) where they do not
+    _, s, Vt = np.linalg.svd(H, full_matrices=False) if H.size else (None, np.zeros(0), None)
+    Hk = Vt[:int(np.sum(s > HOLD_RTOL))] if H.size else H
+    rows = []
+    for d in range(3):
+        u = g[:, d] + C @ r[:, d]
+        full = float(c[d, d] + 2.0 * r[:, d] @ g[:, d] + r[:, d] @ C @ r[:, d])
+        if Hk.size:
+            hu = Hk @ u
+            full -= float(hu @ np.linalg.solve(Hk @ C @ Hk.T, hu))
+        kept = _quadratic(L[:, d] + G.T @ r[:, d], Z, K) if K.shape[0] else 0.0
+        rows.append(Coverage(BODY_LOAD, DIRECTIONS[d], max(full, 0.0), kept, False))
+    return rows
+
+
+def body_relevance(rows: list[Coverage], mass: float, scale: float) -> list[Coverage]:
+    """Body-load rows (:func:`body_load_coverage`) marked relevant where the work over the
+    squared mass, c / m^2 (m/N: the compliance of the link's weight as if at one point), is
+    at least :data:`RELEVANT_SHARE` of ``scale`` (m/N, the frames' softest): a stiff link's
+    own weight is then no finding."""
+    m2 = max(float(mass) ** 2, 1e-300)
+    return [replace(c, relevant=c.full > 0 and c.full / m2 >= RELEVANT_SHARE * scale)
+            for c in rows]
 
 
 def coverage_warnings(link_name: str, rows: list[Coverage], remedy: str,
@@ -217,7 +286,8 @@ def coverage_warnings(link_name: str, rows: list[Coverage], remedy: str,
     if not by_frame:
         return []
     what = "; ".join(", ".join(f"{c.direction} {100 * c.ratio:.0f} %" for c in cs)
-                     + f" at {frame!r}" for frame, cs in by_frame.items())
+                     + (f" under {frame}" if frame == BODY_LOAD else f" at {frame!r}")
+                     for frame, cs in by_frame.items())
     return [(f"link {link_name!r}, {condition}: its kept modes carry only {what} of the "
              f"full FE model's static compliance (body axes), so it comes out too stiff; "
              f"{remedy}")]
@@ -232,7 +302,8 @@ def coverage_report(link, modes=None, directions=DIRECTIONS[:3]) -> dict:
     {"rows": [{frame, direction, share, relevant}] (share of the full FE model's
     compliance, 0..1), "warnings": [...]} (empty rows without stored compliance).
     """
-    rows = static_coverage(link, modes, directions)
+    frames = static_coverage(link, modes, directions)
+    rows = frames + body_relevance(body_load_coverage(link, modes), link.mass, softest(frames))
     return {"rows": [{"frame": c.frame, "direction": c.direction, "share": c.ratio,
                       "relevant": c.relevant} for c in rows],
             "warnings": coverage_warnings(link.name, rows,

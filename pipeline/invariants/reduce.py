@@ -114,13 +114,18 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
                    _reference_first(interfaces, request.reference) + markers]
     ref = tied.interface(request.reference)
     with stage(f"interface compliance of link '{name}'", times):
-        from pipeline.modes.compliance import interface_compliance
+        from pipeline.modes.compliance import body_load_response, interface_compliance
 
         loaded = [m[0] for m in motions[1:]]  # every frame but the reference
+        g, c = body_load_response(model, tied, problem, loaded, ref.pose[:3, :3])
         compliance = {"frames": [f.name for f in loaded], "directions": list(DIRECTIONS),
                       "units": "m/N, rad/N, m/(N m), rad/(N m); body axes",
                       "matrix": interface_compliance(model, tied, problem, loaded,
-                                                     ref.pose[:3, :3]).tolist()}
+                                                     ref.pose[:3, :3]).tolist(),
+                      "body_load": {"frames": g.tolist(), "work": c.tolist(),
+                                    "units": "per unit acceleration along the body axes: "
+                                             "frames m, rad per m/s^2; work N m per "
+                                             "(m/s^2)^2"}}
     KG, KF, KI, stiffening = None, None, None, {}
     if request.geometric_stiffening:
         from pipeline.fem.geometric import CENTRIFUGAL_CASES, INERTIA_CASES

@@ -19,6 +19,16 @@ from pipeline.fem.model import FemModel
 from pipeline.modes.clamp import ClampedProblem
 
 
+def _frame_loads(model: FemModel, tied: TiedModel, problem: ClampedProblem,
+                 frames: list[Interface], axes: np.ndarray) -> np.ndarray:
+    """(n_c, 6F) the frames' unit loads G^T e in the clamped coordinates, body axes."""
+    R = np.asarray(axes, dtype=float)
+    to_body = sp.block_diag([R.T, R.T] * len(frames), format="csr")
+    G = to_body @ sp.vstack([interface_operator(model, f) for f in frames], format="csr")
+    expand = tied.transform @ problem.space.L  # clamped coordinates -> full DOFs
+    return np.asarray((expand.T @ G.T).todense())
+
+
 def interface_compliance(model: FemModel, tied: TiedModel, problem: ClampedProblem,
                          frames: list[Interface], axes: np.ndarray) -> np.ndarray:
     """(6F, 6F) static compliance of the clamped FE model between ``frames``.
@@ -38,11 +48,34 @@ def interface_compliance(model: FemModel, tied: TiedModel, problem: ClampedProbl
     """
     if not frames:
         return np.zeros((0, 0))
-    R = np.asarray(axes, dtype=float)
-    to_body = sp.block_diag([R.T, R.T] * len(frames), format="csr")
-    G = to_body @ sp.vstack([interface_operator(model, f) for f in frames], format="csr")
-    expand = tied.transform @ problem.space.L  # clamped coordinates -> full DOFs
-    loads = np.asarray((expand.T @ G.T).todense())  # (n_c, 6F): G^T e of every direction
+    loads = _frame_loads(model, tied, problem, frames, axes)  # (n_c, 6F)
     U = np.asarray(problem.factor().solve(loads))
     C = loads.T @ U
     return 0.5 * (C + C.T)
+
+
+def body_load_response(model: FemModel, tied: TiedModel, problem: ClampedProblem,
+                       frames: list[Interface], axes: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """The clamped FE model under its own weight: a unit uniform acceleration field along
+    each body axis (the body force rho e_k, point masses included,
+    :func:`pipeline.fem.geometric.acceleration_loads`; one block solve of 3 right-hand
+    sides on the modes' factorisation).
+
+    Returns
+    -------
+    g : (6F, 3) each frame's static deflection (body axes) per unit acceleration, m and rad
+        per m/s^2.
+    c : (3, 3) the loads' work on the deflections, f_j . u_k (N m per (m/s^2)^2): the
+        compliance of the distributed load, what a basis must carry of a link's own
+        weight and inertia.
+    """
+    from pipeline.fem.geometric import acceleration_loads
+
+    expand = tied.transform @ problem.space.L
+    F = np.asarray(expand.T @ acceleration_loads(model, axes).T)  # (n_c, 3)
+    U = np.asarray(problem.factor().solve(F))
+    c = F.T @ U
+    g = _frame_loads(model, tied, problem, frames, axes).T @ U if frames else \
+        np.zeros((0, 3))
+    return g, 0.5 * (c + c.T)

@@ -124,8 +124,9 @@ def _sections_per_member(spec: LinkSpec) -> list:
 #: frequencies completed and aligned with the body axes; 3: stress modes; 4: frame-force
 #: geometric stiffness; 5: reference conditions in the meta, chord references; 6: the
 #: acceleration cases' geometric stiffness; 7: the twelve inertia cases; 8: the frames'
-#: static compliance on the full model), so cached artifacts are rebuilt
-REDUCTION_REVISION = 8
+#: static compliance on the full model; 9: its response to its own weight), so cached
+#: artifacts are rebuilt
+REDUCTION_REVISION = 9
 
 
 def input_hash(spec: LinkSpec, files: tuple[Path, ...]) -> str:

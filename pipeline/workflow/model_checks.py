@@ -25,6 +25,8 @@ import numpy as np
 from pipeline.invariants.adequacy import (
     DIRECTIONS,
     basis_remedy,
+    body_load_coverage,
+    body_relevance,
     constrained_coverage,
     coverage_warnings,
     frame_motions,
@@ -42,13 +44,17 @@ _PLANE_DIRECTIONS = {None: ("x", "y", "z"), "xy": ("x", "y"), "xz": ("x", "z"),
 
 def basis_warnings(wf, machine) -> tuple[str, ...]:
     """One line per flexible link whose kept modes miss a share of the static compliance
-    where the machine loads it (joints and force elements), on the machine's supports.
+    where the machine loads it (joints and force elements) or of its own weight and
+    inertia (:func:`pipeline.invariants.adequacy.body_load_coverage`), on the machine's
+    supports.
 
     A direction counts when its compliance is at least
     :data:`pipeline.invariants.adequacy.RELEVANT_SHARE` of the softest the machine is: the
     largest over its flexible links of their loaded frames' compliance in the machine and
     of their frames' compliance held at the reference only (a connecting rod loaded at its
-    pins only along its axis still bends under its own inertia). A stiff link's far pin
+    pins only along its axis still bends under its own inertia; its own weight counts as
+    the work over its squared mass, :func:`pipeline.invariants.adequacy.body_relevance`).
+    A stiff link's far pin
     that its loop holds fast is then no finding. A flexible link kept rigid (no modes: a
     modelling choice, the rigid case of a mode study) is not checked, but its full FE
     compliance still sets how soft the machine is. A link the machine moves and loads in
@@ -61,19 +67,24 @@ def basis_warnings(wf, machine) -> tuple[str, ...]:
         if entry.type != "flexible" or frame_motions(part.reduced) is None:
             continue
         plane = getattr(entry, "plane", None) or machine_plane(machine, name)
-        rows, held, _ = machine_conditions(wf, machine, name, plane)
+        rows, held, _, rigid = machine_conditions(wf, machine, name, plane)
         _, G, K, C = frame_motions(part.reduced, part.modes)
         cover = constrained_coverage(G, K, C, rows, held)
+        body = [c for c in body_load_coverage(part.reduced, part.modes, held, rigid)
+                if c.direction in _PLANE_DIRECTIONS[plane]]
+        scale = max(scale, max((c.full for c in body), default=0.0)
+                    / max(part.reduced.mass, 1e-300) ** 2)
         # held at its reference only, a frame's full compliance is C's diagonal entry
         asked = [DIRECTIONS.index(d) for d in _PLANE_DIRECTIONS[plane]]
         alone = max((C[k, k] for k in range(len(C)) if k % 6 in asked), default=0.0)
         scale = max(scale, alone, softest(cover))
         if part.modes:
-            checked.append((name, part, cover))
+            checked.append((name, part, cover, body))
     out: list[str] = []
-    for name, part, cover in checked:
+    for name, part, cover, body in checked:
         constraint = any(part.reduced.mode_kinds[a] == "constraint" for a in part.modes)
-        out += coverage_warnings(name, with_relevance(cover, scale),
+        out += coverage_warnings(name, with_relevance(cover, scale)
+                                 + body_relevance(body, part.reduced.mass, scale),
                                  basis_remedy(constraint, f"links.{name}.modes"),
                                  "on the machine's supports")
     return tuple(out)
@@ -145,7 +156,7 @@ def machine_plane(machine, name: str, rtol: float = 1e-9) -> str | None:
 
 
 def machine_conditions(wf, machine, name: str, plane: str | None):
-    """(rows, held, frame names) of link ``name`` in the machine at its initial
+    """(rows, held, frame names, rigid work) of link ``name`` in the machine at its initial
     configuration, drivers held and the other links rigid.
 
     rows : (frame, direction, w) for every frame a joint or a force element loads
@@ -153,6 +164,9 @@ def machine_conditions(wf, machine, name: str, plane: str | None):
         on); w (6F,) is its ground displacement along the body axis ``direction`` per unit
         motion of the link's frames, the rigid motion the loops give the link included.
     held : (k, 6F) combinations of frame motions the loops hold at zero.
+    rigid work : (6F, 3) the work of a unit acceleration along each body axis on the link
+        (its own weight and inertia) over the rigid motion the loops give it per unit
+        motion of its frames (a boom that turns about its foot as its lug moves).
     """
     from pipeline.dynamics.bodies import frame_views
     from pipeline.kinematics import build_mechanism, evaluate_tree
@@ -208,7 +222,11 @@ def machine_conditions(wf, machine, name: str, plane: str | None):
         W -= (dA[others] @ p)[:, :3].T @ take_up  # the rigid motion the loops give it
         Wb = A[:3, :3].T @ W  # read along the body axes
         rows += [(n, d, Wb[DIRECTIONS.index(d)]) for d in _PLANE_DIRECTIONS[plane]]
-    return rows, held, names
+    # int rho [r; 1] dV of the link in its body frame: [m c; m]
+    C4 = np.asarray(red.C, dtype=float)[:, 3]
+    rigid = -np.einsum("kij,j,kc->ci", dA[others][:, :3, :], C4, take_up) @ A[:3, :3] \
+        if Jo.size else np.zeros((6 * F, 3))
+    return rows, held, names, rigid
 
 
 def loaded_frames(wf, mech, name: str) -> set[str]:
