@@ -25,6 +25,12 @@ from pipeline.workflow.yaml_io import _fmt, config_error, load_yaml
 
 Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 Mat3 = Annotated[list[Vec3], Field(min_length=3, max_length=3)]
+#: the largest coordinate a position may have, m (a machine is not 1000 km long; 1e308 m
+#: would overflow the 4x4 products)
+MAX_COORDINATE = 1.0e6
+#: a position, m: three numbers within +-MAX_COORDINATE
+Pos3 = Annotated[list[Annotated[float, Field(ge=-MAX_COORDINATE, le=MAX_COORDINATE)]],
+                 Field(min_length=3, max_length=3)]
 
 
 class Strict(BaseModel):
@@ -59,7 +65,7 @@ class SolidGeometrySpec(Strict):
 
 class BeamGeometrySpec(Strict):
     type: Literal["beam"]
-    points: list[Vec3] = Field(min_length=2, description="polyline vertices, m")
+    points: list[Pos3] = Field(min_length=2, description="polyline vertices, m")
     vertex_names: list[str] = Field(default_factory=list, description="names of the vertices")
     element_size: float = Field(gt=0, description="target beam element length, m")
 
@@ -71,7 +77,7 @@ class GroupSelector(Strict):
 
 class CylinderSelector(Strict):
     type: Literal["cylinder"]
-    point: Vec3 = Field(description="a point on the axis, m")
+    point: Pos3 = Field(description="a point on the axis, m")
     axis: Vec3
     radius: float = Field(gt=0, description="m")
     tol: float | None = Field(None, gt=0, description="radial tolerance, m")
@@ -79,20 +85,20 @@ class CylinderSelector(Strict):
 
 class PlaneSelector(Strict):
     type: Literal["plane"]
-    point: Vec3
+    point: Pos3
     normal: Vec3
     tol: float | None = Field(None, gt=0, description="m")
 
 
 class NearestSelector(Strict):
     type: Literal["nearest"]
-    point: Vec3
+    point: Pos3
 
 
 class BoxSelector(Strict):
     type: Literal["box"]
-    lo: Vec3
-    hi: Vec3
+    lo: Pos3
+    hi: Pos3
 
 
 Selector = Annotated[
@@ -104,7 +110,7 @@ Selector = Annotated[
 class InterfaceSpec(Strict):
     name: str
     selector: Selector
-    origin: Vec3 | None = Field(
+    origin: Pos3 | None = Field(
         None, description="reference point, m (default: the selector's point)")
     z_axis: Vec3 | None = Field(
         None, description="joint axis (default: cylinder axis, plane normal or z)")
@@ -114,7 +120,7 @@ class InterfaceSpec(Strict):
 
 class MarkerSpec(Strict):
     name: str
-    position: Vec3 = Field(description="m")
+    position: Pos3 = Field(description="m")
     z_axis: Vec3 | None = None
     x_axis: Vec3 | None = None
     radius: float | None = Field(
@@ -123,7 +129,7 @@ class MarkerSpec(Strict):
 
 class PointMassSpec(Strict):
     name: str
-    position: Vec3 = Field(description="m")
+    position: Pos3 = Field(description="m")
     mass: float = Field(gt=0, description="kg")
     inertia: Mat3 | None = Field(None, description="about its own centre, kg m^2")
 

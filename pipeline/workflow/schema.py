@@ -15,7 +15,7 @@ from pydantic import AfterValidator, Field, field_validator, model_validator
 
 from pipeline.post.units import ANGLE, FORCE, LENGTH, STRESS
 from pipeline.post.views import check_camera
-from pipeline.workflow.link_spec import LinkSpec, Mat3, Strict, Vec3
+from pipeline.workflow.link_spec import LinkSpec, Mat3, Pos3, Strict, Vec3
 
 Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*$")]
 Inertia = Annotated[list[float], Field(min_length=6, max_length=6)] | Mat3
@@ -28,7 +28,7 @@ MARKER_FIELDS = ("marker", "marker_a", "marker_b")
 class FrameSpec(Strict):
     """A frame fixed to a link: origin (m) and axes in the link's coordinates."""
 
-    origin: Vec3 = Field([0.0, 0.0, 0.0], description="m, link coordinates")
+    origin: Pos3 = Field([0.0, 0.0, 0.0], description="m, link coordinates")
     z: Vec3 | None = Field(None, description="direction of the frame's z axis (joint axis)")
     x: Vec3 | None = Field(None, description="direction of the frame's x axis (made normal to z)")
     on: str | None = Field(None, description="flexible links: spec interface/marker the frame is "
@@ -37,14 +37,14 @@ class FrameSpec(Strict):
 
 class BoxShape(Strict):
     type: Literal["box"]
-    size: Vec3 = Field(description="edge lengths, m")
-    center: Vec3 = Field([0.0, 0.0, 0.0], description="m, link coordinates")
+    size: Pos3 = Field(description="edge lengths, m")
+    center: Pos3 = Field([0.0, 0.0, 0.0], description="m, link coordinates")
 
 
 class CylinderShape(Strict):
     type: Literal["cylinder"]
-    start: Vec3 = Field(alias="from", description="axis start, m")
-    end: Vec3 = Field(alias="to", description="axis end, m")
+    start: Pos3 = Field(alias="from", description="axis start, m")
+    end: Pos3 = Field(alias="to", description="axis end, m")
     radius: float = Field(gt=0, description="m")
 
 
@@ -68,7 +68,7 @@ class RigidLink(Strict):
 
     type: Literal["rigid"]
     mass: float | None = Field(None, gt=0, description="kg")
-    com: Vec3 | None = Field(None, description="centre of mass, m, link coordinates")
+    com: Pos3 | None = Field(None, description="centre of mass, m, link coordinates")
     inertia: Inertia | None = Field(
         None, description="about the COM in link axes, kg m^2: [ixx, iyy, izz, ixy, iyz, ixz] "
                           "or a 3x3 matrix")

@@ -84,7 +84,11 @@ def mutate(text: str, rng: random.Random, rigid_build: bool) -> Mutant:
     data = yaml.safe_load(text)
     nodes = [(p, v) for p, v in _leaves(data) if p]
     op = rng.choice(["bool", "string", "nonfinite", "negative", "unknown_key", "delete",
-                     "null", "container", "text", "huge", "name"])
+                     "null", "container", "text", "huge", "name", "inertia", "table", "axis"])
+    if op in ("inertia", "table", "axis") and rigid_build:
+        guarded = _guarded(data, op, rng)
+        if guarded is not None:
+            return guarded
     if op == "text":
         lines = text.splitlines(keepends=True)
         k = rng.randrange(len(lines))
@@ -147,6 +151,46 @@ def mutate(text: str, rng: random.Random, rigid_build: bool) -> Mutant:
     _set(data, path, _DELETE if op == "delete" else None)
     return Mutant(yaml.safe_dump(data, sort_keys=False), op if op in ("delete", "null")
                   else "null", path, False)
+
+
+#: inertias a rigid link may be given: (value, refused for certain). Negative or
+#: unsymmetric ones no body has; a thin rod, a point mass and a reflected inertia are idioms
+#: (accepted, unless the joints let them move without inertia: not certain either way)
+_INERTIAS = [([-0.1, 2.3, 2.3, 0, 0, 0], True), ([[1, 0.1, 0], [0.2, 1, 0], [0, 0, 1]], True),
+             ([0.003, 2.3, 2.3, 3.0, 0, 0], True), ([0, 2.3, 2.3, 0, 0, 0], False),
+             ([0, 0, 0, 0, 0, 0], False), ([0.02, 0.02, 1.0066, 0, 0, 0], False)]
+#: files a driver table may name: devices, folders and missing files are refused
+_TABLE_FILES = ["/dev/zero", "/dev/null", "/", "no_such_table.csv"]
+
+
+def _guarded(data, op: str, rng: random.Random) -> Mutant | None:
+    """A mutant aimed at one of the build's guards (rigid machines, which are built):
+    an inertia, a driver table that is not a regular file, a zero frame axis."""
+    links = data.get("links", {}) if isinstance(data, dict) else {}
+    if op == "inertia":
+        rigid = [k for k, v in links.items() if isinstance(v, dict) and "inertia" in v]
+        if not rigid:
+            return None
+        name = rng.choice(rigid)
+        value, certain = rng.choice(_INERTIAS)
+        links[name]["inertia"] = value
+        return Mutant(yaml.safe_dump(data, sort_keys=False), op, ("links", name, "inertia"),
+                      certain)
+    if op == "table":
+        drivers = data.get("drivers") or {}
+        if not isinstance(drivers, dict) or not drivers:
+            return None
+        name = rng.choice(sorted(drivers))
+        drivers[name] = {"type": "table", "file": rng.choice(_TABLE_FILES)}
+        return Mutant(yaml.safe_dump(data, sort_keys=False), op, ("drivers", name), True)
+    frames = [(k, f) for k, v in links.items() if isinstance(v, dict)
+              for f in (v.get("frames") or {})]
+    if not frames:
+        return None
+    link, frame = rng.choice(frames)
+    links[link]["frames"][frame]["z"] = rng.choice([[0, 0, 0], [0.0, 0.0, 0.0]])
+    return Mutant(yaml.safe_dump(data, sort_keys=False), op, ("links", link, "frames", frame),
+                  True)
 
 
 class _Timeout(Exception):

@@ -938,3 +938,15 @@ def test_cad_and_tables_beyond_their_size_and_recipe_lengths_beyond_range_are_re
     with pytest.raises(ConfigError, match=r"params.points\[1\]\[0\]: 1e\+30 m is beyond"):
         check_extent({"points": [[0.0, 0.0], [1e30, 0.0]], "width": 0.1}, "link 'x'")
     check_extent({"points": [[0.0, 0.0], [24.0, 0.0]], "width": 0.1}, "link 'x'")
+
+
+def test_a_position_beyond_1000_km_is_one_line(tmp_path):
+    """The 2000-mutant fuzzer found it: a frame origin at 1e308 m overflowed the 4x4
+    products (a RuntimeWarning, then a traceback). Positions are bounded at load."""
+    text = FOURBAR.replace("D: {origin: [3.5, 0, 0]}", "D: {origin: [1.0e308, 0, 0]}")
+    p = _write(tmp_path, text)
+    line = next(i for i, t in enumerate(text.splitlines(), 1) if "1.0e308" in t)
+    with pytest.raises(ConfigError) as exc:
+        load_workflow(p)
+    assert str(exc.value) == (f"{p}:{line}: links.ground.frames.D.origin[0]: Input should be "
+                              "less than or equal to 1000000")
