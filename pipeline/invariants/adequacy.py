@@ -1,7 +1,7 @@
 """Does a reduction basis carry the link's load paths? Static coverage of its frames.
 
 The reduction stores the full FE model's compliance C between the link's frames
-(:func:`pipeline.modes.compliance.interface_compliance`, in the artifact's meta). Its
+(:func:`pipeline.modes.compliance.interface_statics`, in the artifact's meta). Its
 attachment modes (the static deflections under unit loads at the frames) are a Ritz basis
 with exactly the full model's static behaviour at the frames; the kept modes are another.
 For a load at a frame, the compliance each reproduces -- the largest (w.u)^2 / strain
@@ -183,8 +183,6 @@ def ritz_compliance(G: np.ndarray, K: np.ndarray, w: np.ndarray, held: np.ndarra
     (w G Z) (Z^T K Z)^-1 (w G Z)^T, Z the combinations the held rows leave free
     (:func:`free_combinations`).
     """
-    if K.shape[0] == 0:
-        return 0.0
     return _quadratic(w @ G, free_combinations(G, held), K)
 
 
@@ -247,11 +245,8 @@ def body_load_coverage(link, modes=None, held: np.ndarray | None = None,
     L = np.asarray(link.Cp, dtype=float)[idx, 3, :3] if idx else np.zeros((0, 3))
     H = np.zeros((0, len(C))) if held is None else np.asarray(held, dtype=float)
     r = np.zeros((len(C), 3)) if rigid is None else np.asarray(rigid, dtype=float)
-    Z = free_combinations(G, H) if K.shape[0] else np.zeros((0, 0))
-    # the held directions of the frames' motions: rows per unit frame motion, O(1) where
-    # they hold, round-off (1e-17) where they do not
-    _, s, Vt = np.linalg.svd(H, full_matrices=False) if H.size else (None, np.zeros(0), None)
-    Hk = Vt[:int(np.sum(s > HOLD_RTOL))] if H.size else H
+    Z = free_combinations(G, H)
+    Hk = _held_directions(H)
     rows = []
     for d in range(3):
         u = g[:, d] + C @ r[:, d]
@@ -259,9 +254,19 @@ def body_load_coverage(link, modes=None, held: np.ndarray | None = None,
         if Hk.size:
             hu = Hk @ u
             full -= float(hu @ np.linalg.solve(Hk @ C @ Hk.T, hu))
-        kept = _quadratic(L[:, d] + G.T @ r[:, d], Z, K) if K.shape[0] else 0.0
+        kept = _quadratic(L[:, d] + G.T @ r[:, d], Z, K)
         rows.append(Coverage(BODY_LOAD, DIRECTIONS[d], max(full, 0.0), kept, False))
     return rows
+
+
+def _held_directions(H: np.ndarray) -> np.ndarray:
+    """(k, 6F) orthonormal rows spanning the held rows H of the frames' motions: per unit
+    frame motion they are O(1) where they hold and round-off (1e-17) where they do not, so
+    singular values above :data:`HOLD_RTOL` count."""
+    if not H.size:
+        return H
+    _, s, Vt = np.linalg.svd(H, full_matrices=False)
+    return Vt[:int(np.sum(s > HOLD_RTOL))]
 
 
 def body_relevance(rows: list[Coverage], mass: float, scale: float) -> list[Coverage]:

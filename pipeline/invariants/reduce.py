@@ -114,14 +114,13 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
                    _reference_first(interfaces, request.reference) + markers]
     ref = tied.interface(request.reference)
     with stage(f"interface compliance of link '{name}'", times):
-        from pipeline.modes.compliance import body_load_response, interface_compliance
+        from pipeline.modes.compliance import interface_statics
 
         loaded = [m[0] for m in motions[1:]]  # every frame but the reference
-        g, c = body_load_response(model, tied, problem, loaded, ref.pose[:3, :3])
+        C, g, c = interface_statics(model, tied, problem, loaded, ref.pose[:3, :3])
         compliance = {"frames": [f.name for f in loaded], "directions": list(DIRECTIONS),
                       "units": "m/N, rad/N, m/(N m), rad/(N m); body axes",
-                      "matrix": interface_compliance(model, tied, problem, loaded,
-                                                     ref.pose[:3, :3]).tolist(),
+                      "matrix": C.tolist(),
                       "body_load": {"frames": g.tolist(), "work": c.tolist(),
                                     "units": "per unit acceleration along the body axes: "
                                              "frames m, rad per m/s^2; work N m per "

@@ -301,14 +301,12 @@ class HeldMode:
     """A combination of a link's modal coordinates the loops hold at zero.
 
     ``coordinates`` are the link's modal coordinates in it (largest share first),
-    ``row`` the closure row that holds it (e.g. "L1 (cut 'T'): position z"), ``share``
-    the row's part in it (1: that row alone).
+    ``row`` the closure row that holds it most (e.g. "L1 (cut 'T'): position z").
     """
 
     link: str
     coordinates: tuple[str, ...]
     row: str
-    share: float
 
 
 def held_modes(mech: Mechanism, q: np.ndarray, driven=()) -> tuple[HeldMode, ...]:
@@ -341,9 +339,7 @@ def held_modes(mech: Mechanism, q: np.ndarray, driven=()) -> tuple[HeldMode, ...
             v = np.abs(Vt[k])
             order = np.argsort(-v)
             coords = tuple(mech.coordinates[idx[i]] for i in order if v[i] >= 0.1 * v.max())
-            r = int(np.argmax(np.abs(rows)))
-            out.append(HeldMode(link.name, coords, names[r],
-                                float(rows[r] ** 2 / (rows @ rows))))
+            out.append(HeldMode(link.name, coords, names[int(np.argmax(np.abs(rows)))]))
     return tuple(out)
 
 

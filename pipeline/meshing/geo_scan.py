@@ -36,9 +36,9 @@ _WRITERS = frozenset({"Printf", "Error", "Warning"})  # write to a file with "> 
 _WORD = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
 
-def _tokens(text: str):
-    """(line, token) of the script's words and punctuation, comments and strings skipped."""
-    code = _code(text)
+def _tokens(code: str):
+    """(line, token) of the words and punctuation of a script whose comments and strings
+    are blanked (:func:`_code`)."""
     i, n, line = 0, len(code), 1
     while i < n:
         c = code[i]
@@ -67,8 +67,9 @@ def check_geo_script(path: str | Path, where: str = "") -> None:
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
         raise MeshError(f"{path}: not a UTF-8 text file (byte {exc.start}){tail}") from None
-    toks = list(_tokens(text))
-    _check_loops(_code(text), path, tail)
+    code = _code(text)
+    toks = list(_tokens(code))
+    _check_loops(code, path, tail)
     _check_macros(toks, path, tail)
     for k, (line, tok) in enumerate(toks):
         nxt = toks[k + 1][1] if k + 1 < len(toks) else ""
@@ -123,12 +124,13 @@ def _check_loops(code: str, path: Path, tail: str) -> None:
     for m in _FOR.finditer(code):
         a, b = float(m.group(1)), float(m.group(2))
         step = float(m.group(3)) if m.group(3) else 1.0
-        passes = 0.0 if step == 0 else (b - a) / step + 1
-        if step == 0 or passes > MAX_LOOP:
-            line = code.count("\n", 0, m.start()) + 1
+        line = code.count("\n", 0, m.start()) + 1
+        if step == 0:
+            raise MeshError(f"{path}:{line}: a For loop with a zero step never ends{tail}")
+        passes = (b - a) / step + 1
+        if passes > MAX_LOOP:
             raise MeshError(f"{path}:{line}: a For loop of {passes:.3g} passes (at most "
-                            f"{MAX_LOOP:g}){tail}" if step else
-                            f"{path}:{line}: a For loop with a zero step never ends{tail}")
+                            f"{MAX_LOOP:g}){tail}")
 
 
 def _check_macros(toks, path: Path, tail: str) -> None:

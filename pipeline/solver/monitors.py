@@ -183,21 +183,34 @@ def _modal_mass(body) -> np.ndarray:
     return np.einsum("abii->ab", body.Cpp[:, :, :3, :3])
 
 
+def _linear_links(system) -> list[tuple[str, object]]:
+    """(name, body) of the flexible links reduced without geometric stiffening."""
+    return [(name, body) for name, body in system.bodies.items()
+            if body.n_modes and not body.second_order_moments.size]
+
+
+def _samples(r: SimulationResult, samples: int, *states) -> list[int]:
+    """Up to ``samples`` output rows spread over the run whose ``states`` ("q", "qd",
+    "qdd") are all finite."""
+    picks = np.unique(np.linspace(0, r.t.size - 1, min(samples, r.t.size)).round().astype(int))
+    return [int(k) for k in picks
+            if all(np.all(np.isfinite(getattr(r, x)[k])) for x in states)]
+
+
 def _spin(system, r: SimulationResult, lim: Limits, samples: int = 200) -> list[str]:
     """Links with linear modes that spin fast enough for centrifugal stiffening to matter."""
     from pipeline.kinematics import evaluate_tree
     from pipeline.kinematics.rotations import vee
 
     mech = system.mechanism
-    todo = [(name, body) for name, body in system.bodies.items()
-            if body.n_modes and not body.second_order_moments.size]
+    todo = _linear_links(system)
     if not todo or not r.t.size:
         return []
-    picks = np.unique(np.linspace(0, r.t.size - 1, min(samples, r.t.size)).round().astype(int))
-    spin2 = {name: np.zeros(picks.size) for name, _ in todo}
+    picks = _samples(r, samples, "q", "qd")
+    if not picks:
+        return []
+    spin2 = {name: np.zeros(len(picks)) for name, _ in todo}
     for j, k in enumerate(picks):
-        if not (np.all(np.isfinite(r.q[k])) and np.all(np.isfinite(r.qd[k]))):
-            continue
         tree = evaluate_tree(mech, r.q[k], r.qd[k], derivatives=False)
         for name, _ in todo:
             li = mech.link_index(name)
@@ -271,8 +284,7 @@ def _axial_load(system, r: SimulationResult, lim: Limits, samples: int = 50) -> 
     from pipeline.kinematics import evaluate_tree
 
     mech = system.mechanism
-    ends = {name: euler_loads(mech, name, body) for name, body in system.bodies.items()
-            if body.n_modes and not body.second_order_moments.size}
+    ends = {name: euler_loads(mech, name, body) for name, body in _linear_links(system)}
     ends = {k: v for k, v in ends.items() if v}
     at = [(j, link, frame, sign) for j, joint in enumerate(mech.joints)
           for link, frame, sign in ((joint.child, joint.child_frame, 1.0),
@@ -282,13 +294,9 @@ def _axial_load(system, r: SimulationResult, lim: Limits, samples: int = 50) -> 
         return []
     if any(not (hasattr(f, "coordinate") or hasattr(f, "loads")) for f in system.forces):
         return []  # an element known only by its generalized force: no joint reactions
-    picks = np.unique(np.linspace(0, r.t.size - 1, min(samples, r.t.size)).round().astype(int))
     worst: dict[str, tuple] = {}
     driven = list(r.driven or ())
-    for k in picks:
-        if not (np.all(np.isfinite(r.q[k])) and np.all(np.isfinite(r.qd[k]))
-                and np.all(np.isfinite(r.qdd[k]))):
-            continue
+    for k in _samples(r, samples, "q", "qd", "qdd"):
         act = dict(zip(driven, np.asarray(r.driver_forces)[k])) if driven else {}
         try:
             rx = joint_reactions(system, r.q[k], r.qd[k], r.qdd[k], float(r.t[k]), act)

@@ -83,9 +83,9 @@ def run_case(base: str, quick: bool, overrides: dict, label: str, analyses, cach
                 out_series[f"{n}:{s}"] = (np.asarray(r.t), series(r, m.mechanism, s,
                                                                  m.parts).values)
         for n, r in results.items():
+            q = np.asarray(r.q)
             for link, frames in (world or {}).items():
                 for f in frames:
-                    q = np.asarray(r.q)
                     out_series[f"{n}:world|{link}.{f}"] = (
                         np.asarray(r.t), marker_positions(m.mechanism, q, link, f))
                     out_series[f"{n}:elastic|{link}.{f}"] = (
@@ -310,7 +310,6 @@ def _check_mode_counts(spec, wf, machine, cases, study) -> None:
     from pipeline.workflow.build import kept_modes
     from pipeline.workflow.yaml_io import load_yaml
 
-    lines = None
     for c in cases:
         if c.kind != "truncation" or c.link not in machine.parts:
             continue
@@ -319,7 +318,7 @@ def _check_mode_counts(spec, wf, machine, cases, study) -> None:
             kept_modes(machine.parts[c.link].reduced, entry.modes,
                        getattr(entry, "plane", None))
         except ConfigError as exc:
-            lines = load_yaml(study)[1] if lines is None else lines
+            lines = load_yaml(study)[1]
             line = lines.get(("truncation", "modes", c.order), lines.get(("truncation",), 1))
             raise ConfigError(f"{study}:{line}: truncation.modes.{c.order}: case "
                               f"{c.label!r}: {exc}; nothing was run") from None
@@ -346,7 +345,7 @@ def _quiet_distributed():
     log = logging.getLogger("distributed")
     level, one_line = log.level, _OneLine()
     log.setLevel(max(logging.WARNING, logging.getLogger().getEffectiveLevel()))
-    handlers = [h for h in logging.getLogger().handlers] + log.handlers
+    handlers = [*logging.getLogger().handlers, *log.handlers]
     for h in handlers:
         h.addFilter(one_line)
     try:
@@ -463,9 +462,10 @@ def case_series(folder: Path, c: Case) -> dict[str, tuple[np.ndarray, np.ndarray
 def recommend(spec, cases: list[Case], folder: Path) -> dict[str, dict]:
     """Per link: the leanest kept-mode entry (in the study's order) whose every compared
     series and world figure (:func:`world_evidence`) stays within the tolerance (relative
-    RMS difference over the common times) of the richest (the last), and the evidence: {"recommended": label, "reference": label,
-    "tolerance": tol, "evidence": {label: {series: relative}}}; without the richest case's
-    results, "recommended" is None and "why" says so."""
+    RMS difference over the common times) of the richest (the last), and the evidence:
+    {"recommended": label, "reference": label, "tolerance": tol, "evidence": {label:
+    {series: relative}}}; without the richest case's results, "recommended" is None and
+    "why" says so."""
     t = spec.truncation
     out: dict[str, dict] = {}
     by_link: dict[str, list[Case]] = {}

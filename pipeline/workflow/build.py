@@ -413,9 +413,9 @@ def out_of_reach(wf: Workflow, mech, driven: dict[str, float]) -> None:
     reach with the other drivers at theirs: its value and the range that closes
     (:func:`pipeline.kinematics.initial.reach`). Returns if every driver is within reach
     on its own (the failure is elsewhere)."""
+    if not mech.topology.loops:
+        return
     for name, value in driven.items():
-        if not mech.topology.loops:
-            return
         span = reach(mech, mech.q_initial, driven, name)
         if span is None or span[0] <= value <= span[1]:
             continue
@@ -453,10 +453,9 @@ def build_machine(wf: Workflow, cache_dir: str | Path = "output/links",
         raise wf.error(*where, msg=(
             f"the machine has no inertia for a motion its joints allow at t = 0: moving "
             f"{', '.join(coords)} moves {', '.join(repr(n) for n in moving)} without "
-            f"kinetic energy (a link "
-            f"without inertia about an axis a joint lets it turn about, or a massless "
-            f"link a joint lets move); give those links inertia for that motion or "
-            f"hold it with a joint"))
+            "kinetic energy (a link without inertia about an axis a joint lets it turn "
+            "about, or a massless link a joint lets move); give those links inertia for "
+            "that motion or hold it with a joint"))
     machine = Machine(wf, system, q0, qd0, parts)
     return dataclasses.replace(machine, model_warnings=basis_warnings(wf, machine),
                                model_notes=held_mode_notes(wf, machine))

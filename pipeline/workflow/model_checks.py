@@ -37,9 +37,10 @@ from pipeline.invariants.planar_modes import PLANES
 from pipeline.invariants.reduced_link import FrameModes
 from pipeline.workflow.schema import MARKER_FIELDS
 
-#: the body-axis directions that matter in each kept plane
-_PLANE_DIRECTIONS = {None: ("x", "y", "z"), "xy": ("x", "y"), "xz": ("x", "z"),
-                     "yz": ("y", "z")}
+#: the body-axis directions that matter in each kept plane (all three without one)
+_PLANE_DIRECTIONS = {None: DIRECTIONS[:3], **{
+    plane: tuple(d for k, d in enumerate(DIRECTIONS[:3]) if k != across)
+    for plane, (across, _) in PLANES.items()}}
 
 
 def basis_warnings(wf, machine) -> tuple[str, ...]:
@@ -54,8 +55,8 @@ def basis_warnings(wf, machine) -> tuple[str, ...]:
     of their frames' compliance held at the reference only (a connecting rod loaded at its
     pins only along its axis still bends under its own inertia; its own weight counts as
     the work over its squared mass, :func:`pipeline.invariants.adequacy.body_relevance`).
-    A stiff link's far pin
-    that its loop holds fast is then no finding. A flexible link kept rigid (no modes: a
+    A stiff link's far pin that its loop holds fast is then no finding. A flexible link
+    kept rigid (no modes: a
     modelling choice, the rigid case of a mode study) is not checked, but its full FE
     compliance still sets how soft the machine is. A link the machine moves and loads in
     one plane of its body axes (:func:`machine_plane`) is checked in that plane, as one
@@ -72,12 +73,11 @@ def basis_warnings(wf, machine) -> tuple[str, ...]:
         cover = constrained_coverage(G, K, C, rows, held)
         body = [c for c in body_load_coverage(part.reduced, part.modes, held, rigid)
                 if c.direction in _PLANE_DIRECTIONS[plane]]
-        scale = max(scale, max((c.full for c in body), default=0.0)
-                    / max(part.reduced.mass, 1e-300) ** 2)
+        weight = max((c.full for c in body), default=0.0) / max(part.reduced.mass, 1e-300) ** 2
         # held at its reference only, a frame's full compliance is C's diagonal entry
         asked = [DIRECTIONS.index(d) for d in _PLANE_DIRECTIONS[plane]]
         alone = max((C[k, k] for k in range(len(C)) if k % 6 in asked), default=0.0)
-        scale = max(scale, alone, softest(cover))
+        scale = max(scale, alone, softest(cover), weight)
         if part.modes:
             checked.append((name, part, cover, body))
     out: list[str] = []
