@@ -180,7 +180,8 @@ def reach(mech: Mechanism, q_guess: np.ndarray, fixed: Mapping[str, float], name
           closure_tol: float = 1e-12, rtol: float = 1e-9) -> tuple[float, float] | None:
     """(lowest, highest) value of coordinate ``name`` at which the loops close with the
     other ``fixed`` coordinates held, on the branch the assembly from ``q_guess`` finds
-    with ``name`` free; None if the loops cannot close even with it free.
+    with ``name`` at its value in ``q_guess`` (or free, if they cannot close there); None if
+    the loops cannot close even with it free, or no step from there closes.
 
     From that assembly the value is moved each way in steps of 0.05 of its unit (steps
     short enough not to leap a gap: a cylinder's rod cannot pass through its foot pin, but
@@ -190,14 +191,20 @@ def reach(mech: Mechanism, q_guess: np.ndarray, fixed: Mapping[str, float], name
     away is +-inf (no limit that way).
     """
     others = {k: v for k, v in fixed.items() if k != name}
-    try:
-        q0 = assemble(mech, np.asarray(q_guess, dtype=float), tuple(others),
-                      tol=closure_tol).q
-    except KinematicsError:
-        return None
     i = mech.index(name)
+    q0 = None
+    # from the guess's own value of the coordinate first (the joint's initial value), then
+    # with it free: a free assembly may land on the edge itself, a toggle, and stall there
+    for held in (tuple(others) + (name,), tuple(others)):
+        try:
+            q0 = assemble(mech, np.asarray(q_guess, dtype=float), held, tol=closure_tol).q
+            break
+        except KinematicsError:
+            continue
+    if q0 is None:
+        return None
     unit = float(mech.coordinate_units[i])
-    limit = 10.0 * unit if unit != 1.0 else 2.0 * np.pi
+    limit = 10.0 * unit if mech.translations[i] else 2.0 * np.pi
     held = tuple(others) + (name,)
 
     def closes(q, v):
@@ -228,6 +235,8 @@ def reach(mech: Mechanism, q_guess: np.ndarray, fixed: Mapping[str, float], name
             else:
                 q_in, v_in = q, mid
         ends.append(v_in)
+    if ends[0] == ends[1]:
+        return None  # no step closed either way: a singular start tells no range
     return ends[0], ends[1]
 
 

@@ -196,17 +196,25 @@ class Mechanism:
         return w
 
     @cached_property
+    def translations(self) -> np.ndarray:
+        """(n,) bool, read-only: the joint coordinates that are lengths (m); the others are
+        angles (rad) or modal amplitudes."""
+        out = np.zeros(self.n, dtype=bool)
+        for j, idx in zip(self.joints, self.joint_index):
+            m = j.kind.motion
+            for kind, v in zip(m.kinds, m.var):
+                out[idx[v]] = kind == "T"
+        out.setflags(write=False)
+        return out
+
+    @cached_property
     def coordinate_units(self) -> np.ndarray:
         """(n,) natural scale of each coordinate (read-only): 1 for an angle, the length
         scale for a length, and for a modal coordinate the amplitude that moves some frame
         of its link by the length scale. Tolerances and rank decisions in these units treat
         radians, metres and modal amplitudes alike."""
         L = float(self.length_scale)
-        unit = np.ones(self.n)
-        for j, idx in zip(self.joints, self.joint_index):
-            m = j.kind.motion
-            for kind, v in zip(m.kinds, m.var):
-                unit[idx[v]] = L if kind == "T" else 1.0
+        unit = np.where(self.translations, L, 1.0)
         for link, idx in zip(self.links, self.modal_index):
             if idx.size:
                 amp = np.zeros(idx.size)

@@ -419,7 +419,7 @@ def out_of_reach(wf: Workflow, mech, driven: dict[str, float]) -> None:
         span = reach(mech, mech.q_initial, driven, name)
         if span is None or span[0] <= value <= span[1]:
             continue
-        unit = "m" if mech.coordinate_units[mech.index(name)] != 1.0 else "rad"
+        unit = "m" if mech.translations[mech.index(name)] else "rad"
         others = ", ".join(f"{k} = {v:.6g}" for k, v in driven.items() if k != name)
         raise wf.error("drivers", name, msg=(
             f"{name} = {value:.6g} {unit} at t = 0 is out of reach: the loops close only "

@@ -272,3 +272,17 @@ def test_a_stroke_out_of_reach_names_the_driver_and_the_reachable_range(tmp_path
     # within reach, the same machine builds
     assert main(["validate", str(_write(tmp_path, REACH.replace("v0: 2.5", "v0: 2.0"))),
                  "--build"]) == 0
+
+
+def test_a_stroke_is_in_metres_whatever_the_machine_s_length_scale(tmp_path, capsys):
+    """The machine's length scale (its largest frame offset) exactly 1 m: a cylinder's
+    stroke was told in rad, a length being recognised by its unit differing from 1. The
+    foot at (0.6, -0.8) is 1 m from the boom's pin, the lug 0.5 m out: strokes from 0.5
+    to 1.5 m close."""
+    text = REACH.replace("S: {origin: [0.5, -1.0, 0]}", "S: {origin: [0.6, -0.8, 0]}") \
+        .replace("LUG: {origin: [1.0, 0, 0]}", "LUG: {origin: [0.5, 0, 0]}")
+    p = _write(tmp_path, text)
+    assert main(["validate", str(p), "--build"]) == 2
+    err = capsys.readouterr().err
+    assert "CYL.d = 2.5 m at t = 0 is out of reach: the loops close only for CYL.d from " \
+           "0.5 to 1.5 m" in err, err
