@@ -38,6 +38,8 @@ def run(args: argparse.Namespace) -> int:
             tag = f" [{c['case']}]" if c["case"] else ""
             verdict = c.get("verdict", "ok" if c["success"] else "partial")
             mark = {"ok": "ok", "partial": f"PARTIAL: {c['message']}"}.get(verdict, "SUSPECT")
+            if c.get("expected", "ok") != "ok":
+                mark += f" (expected {c['expected']})"
             print(f"  {c['type']:<12} {name}{tag}: {c['outputs']} outputs, {c['seconds']} s, "
                   f"{mark}")
             for w in c.get("warnings", []):

@@ -306,7 +306,7 @@ def _run_locked(wf, cache_dir, final, tmp, rebuild, outputs, workers, timings,
         skipped: list[str] = []
         if outputs:
             files = write_outputs(tmp, wf, machines, results, timings, skipped)
-        status = overall_status(r for rs in results.values() for r in rs)
+        status = overall_status(results, expected_verdicts(wf))
         if skipped and status == "ok":
             status = "partial"
         timings["total"] = time.perf_counter() - t_start
@@ -339,17 +339,36 @@ def _warn_redundant(wf: Workflow, m: Machine) -> None:
                        ", ".join(rep.redundant))
 
 
-def overall_status(results) -> str:
-    """"partial" if any analysis stopped, else "suspect" if any tripped a check, else "ok"."""
-    verdicts = {r.verdict for r in results}
+def expected_verdicts(wf: Workflow) -> dict[tuple[str, str], str]:
+    """{(analysis, case label): the verdict the case expects} (``expect:``, default ok)."""
+    return {(a.name, c.label): c.expect for a in wf.spec.analyses for c in a.cases}
+
+
+def overall_status(results: dict, expected: dict | None = None) -> str:
+    """"partial" if any analysis stopped, else "suspect" if any case ended other than it
+    expects (``expected``: {(analysis, case): verdict}, default "ok"), else "ok".
+
+    results : {analysis name: [AnalysisResult, ...]}. A comparison case that expects
+    "suspect" and ends "ok" makes the run suspect: it no longer shows what it was kept for.
+    """
+    expected = expected or {}
+    verdicts = set()
+    for name, rs in results.items():
+        for r in rs:
+            want = expected.get((name, r.case), "ok")
+            verdicts.add("ok" if r.verdict == want else
+                         "partial" if r.verdict == "partial" else "suspect")
     return next((v for v in ("partial", "suspect") if v in verdicts), "ok")
 
 
 def _manifest(wf: Workflow, base: Machine, results, timings, status, files) -> dict:
     analyses = {}
+    expected = expected_verdicts(wf)
     for name, rs in results.items():
         analyses[name] = [{"case": r.case, "type": r.type, "success": r.success,
-                           "verdict": r.verdict, "message": r.message,
+                           "verdict": r.verdict,
+                           "expected": expected.get((name, r.case), "ok"),
+                           "message": r.message,
                            "warnings": list(r.warnings), "outputs": len(r.t),
                            "seconds": round(r.timings.get("total", 0.0), 3)} for r in rs]
     links = {name: {"artifact": p.reduced.meta.get("input_hash", "")[:12], "cache": p.cache,

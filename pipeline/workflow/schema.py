@@ -242,6 +242,10 @@ class CaseSpec(Strict):
     label: str
     set: dict[str, Any] = Field(default_factory=dict,
                                 description="overrides (dotted paths, as --set)")
+    expect: Literal["ok", "suspect"] = Field(
+        "ok", description="the verdict this case is meant to end with: 'suspect' for a "
+        "comparison case kept to show what a model leaves out (it still reports its "
+        "warnings; the workflow is suspect only if the case ends otherwise)")
 
 
 class _Analysis(Strict):
