@@ -46,39 +46,17 @@ def run_dae(system, q0, qd0, t0, t1, te, *, rtol, atol, step=None, rho_inf=0.8,
     tic = time.perf_counter()
     cs = ConstrainedSystem(system)
     unit = system.mechanism.coordinate_units
-    if not system.mechanism.topology.loops:
-        jump = np.inf  # no closure, no branch to leave: a stiff mode may move far in a step
     run = _Run(cs, unit, t0, t1, rtol, atol, step, max_step, max_steps, max_wall, tic)
-    # Newton errors add up over the steps like truncation errors: well below the local
-    # error (adaptive), or, with a fixed step, below both the tolerance (which now sets the
-    # error accepted, see step_error) and 1e-8 relative, or the method loses its order (a
-    # four-bar at 1 ms: 34x the error with Newton stopped at rtol)
-    if step:
-        newton_rtol, newton_atol = min(1e-2 * rtol, 1e-8), min(1e-2 * atol, 1e-10)
-    else:
-        newton_rtol, newton_atol = 0.1 * rtol, 0.1 * atol
-    stepper = make_stepper(cs, rho_inf=rho_inf, newton_rtol=newton_rtol,
-                           newton_atol=newton_atol, closure_tol=1e-10, unit=unit, jump=jump)
+    stepper = dae_stepper(cs, rtol, atol, step, rho_inf, jump)
     q, v = cs.with_drivers(t0, q0, qd0)
     grid = OutputGrid(cs, te, getattr(stepper, "output", None))
     with progress_counter(te.size, "simulating", progress) as advance:
-        try:
-            msg = run.march(stepper, stepper.start(t0, q, v), grid, advance)
-        except (PipelineError, np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
-            # a state the equations cannot be solved at (a singular start): the history
-            # so far, and why
-            from pipeline.kinematics.joints import gimbal_lock_note
-
-            q_fail = grid.rows[-1][1] if grid.rows else q
-            msg = (f"integration failed after t = {grid.rows[-1][0] if grid.rows else t0:.6g}"
-                   f" s: {exc}" + gimbal_lock_note(system.mechanism, q_fail))
+        _, _, msg = march_guarded(run, stepper, (t0, q, v), np.zeros(2), grid, advance)
     total = time.perf_counter() - tic
     if msg:
         logger.warning("simulation: %s", msg)
-    stats = {"rejected": run.rejected, "h_min": run.hmin if run.steps else 0.0,
-             "h_max": run.hmax, "evaluations": stepper.evaluations,
-             "jacobians": stepper.jacobians}
-    r = grid.result(msg, run.steps, stepper.evaluations, total, "generalized_alpha", stats)
+    r = grid.result(msg, run.steps, stepper.evaluations, total, "generalized_alpha",
+                    run.stats(stepper))
     if step and estimate and not msg:  # a fixed step has no error control: estimate it
         from pipeline.solver.step_error import fixed_step_error
 
@@ -91,6 +69,42 @@ def run_dae(system, q0, qd0, t0, t1, te, *, rtol, atol, step=None, rho_inf=0.8,
         est["error_seconds"] = time.perf_counter() - tic
         r = replace(r, step_stats={**r.step_stats, **est})
     return r
+
+
+def dae_stepper(cs: ConstrainedSystem, rtol, atol, step, rho_inf, jump=0.1):
+    """The generalised-alpha stepper of ``cs`` (compiled where the force elements allow)
+    with the Newton tolerances that keep a fixed-step or an adaptive run at its order."""
+    if not cs.system.mechanism.topology.loops:
+        jump = np.inf  # no closure, no branch to leave: a stiff mode may move far in a step
+    # Newton errors add up over the steps like truncation errors: well below the local
+    # error (adaptive), or, with a fixed step, below both the tolerance (which now sets the
+    # error accepted, see step_error) and 1e-8 relative, or the method loses its order (a
+    # four-bar at 1 ms: 34x the error with Newton stopped at rtol)
+    if step:
+        newton_rtol, newton_atol = min(1e-2 * rtol, 1e-8), min(1e-2 * atol, 1e-10)
+    else:
+        newton_rtol, newton_atol = 0.1 * rtol, 0.1 * atol
+    return make_stepper(cs, rho_inf=rho_inf, newton_rtol=newton_rtol, newton_atol=newton_atol,
+                        closure_tol=1e-10, unit=cs.system.mechanism.coordinate_units,
+                        jump=jump)
+
+
+def march_guarded(run, stepper, s, work, grid, advance):
+    """:meth:`_Run.march` from the step state s (or a start (t, q, v)), a state the
+    equations cannot be solved at (a singular start) turned into the failure message:
+    (state, work, message or None)."""
+    try:
+        if isinstance(s, tuple):
+            s = stepper.start(*s)
+        return run.march(stepper, s, work, grid, advance)
+    except (PipelineError, np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
+        from pipeline.kinematics.joints import gimbal_lock_note
+
+        system = run.cs.system
+        here = s[:2] if isinstance(s, tuple) else (s.t, s.q)
+        t_fail, q_fail = grid.rows[-1][:2] if grid.rows else here
+        return s, work, (f"integration failed after t = {t_fail:.6g} s: {exc}"
+                         + gimbal_lock_note(system.mechanism, q_fail))
 
 
 class _Run:
@@ -125,19 +139,25 @@ class _Run:
                                                                   np.abs(s1.q[U]))
         return float(np.sqrt(np.mean((e / scale) ** 2))) if e.size else 0.0
 
-    def march(self, stepper, s, grid, advance) -> str | None:
-        """Step from s to t1, recording outputs; returns a failure message or None."""
-        work = np.zeros(2)
+    def stats(self, stepper) -> dict:
+        """The step statistics of the run so far (SimulationResult.step_stats)."""
+        return {"rejected": self.rejected, "h_min": self.hmin if self.steps else 0.0,
+                "h_max": self.hmax, "evaluations": stepper.evaluations,
+                "jacobians": stepper.jacobians}
+
+    def march(self, stepper, s, work, grid, advance):
+        """Step from s to t1, recording outputs; work (2,): the driver work and dissipated
+        energy at s, J. Returns (state, work, failure message or None)."""
         if grid.due(s.t):
             grid.record(s.t, s.q, s.v, work)
         while s.t < self.t1 - same_time(self.t1):
             msg = self._budget(s.t)
             if msg:
-                return msg
+                return s, work, msg
             if self.step and self.h == self.nominal and hasattr(stepper, "march"):
                 s, work, msg = self._stretch(stepper, s, grid, advance, work)
                 if msg:
-                    return msg
+                    return s, work, msg
                 continue
             h = min(self.h, self.t1 - s.t)
             if self.t1 - (s.t + h) < 1e-3 * h:  # no sliver of a last step
@@ -148,8 +168,8 @@ class _Run:
                 stepper.reset()
                 self.h = 0.5 * h
                 if self._too_small(self.h, s.t):
-                    return f"step size collapsed to {self.h:.3g} s at t = {s.t:.6g} s: " + \
-                        _FAILURES[out.why](out)
+                    return s, work, (f"step size collapsed to {self.h:.3g} s at t = "
+                                     f"{s.t:.6g} s: " + _FAILURES[out.why](out))
                 continue
             s1 = out.state
             if not self.step:
@@ -159,8 +179,8 @@ class _Run:
                     self.rejected += 1
                     self.h = h * min(factor, 0.9)
                     if self._too_small(self.h, s.t):
-                        return (f"step size collapsed to {self.h:.3g} s at t = {s.t:.6g} s "
-                                "(error control)")
+                        return s, work, (f"step size collapsed to {self.h:.3g} s at t = "
+                                         f"{s.t:.6g} s (error control)")
                     continue
                 self.h = min(h * factor, self.max_step)
             else:  # back towards the user's step after a halved one
@@ -173,8 +193,8 @@ class _Run:
             self.hmin, self.hmax = min(self.hmin, h), max(self.hmax, h)
             msg = self.stall(s.t)
             if msg:
-                return msg
-        return None
+                return s, work, msg
+        return s, work, None
 
 
     def _stretch(self, stepper, s, grid, advance, work):
