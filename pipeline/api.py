@@ -16,12 +16,15 @@ Mechanism (kinematics)
     :class:`Table`.
 Dynamics
     :class:`System`, :class:`BodyMass`, :func:`body_from_reduced`; force elements
-    :class:`SpringDamper`, :class:`JointSpringDamper`, :class:`PointForce`,
+    :class:`SpringDamper`, :class:`JointSpringDamper`, :class:`JointForce`,
+    :class:`PointForce`,
     :class:`Torque`, :class:`ForceCylinder` (geometric stiffening is in the links:
     ``body_from_reduced(..., second_order=True)``, ``link_from_reduced(...,
     second_order=True)``); analyses :func:`static_equilibrium`,
     :func:`kinetostatics` (with joint reactions), :func:`simulate` (checked transient:
-    ``result.verdict``), :func:`vibration_modes`, :func:`marker_motion`.
+    ``result.verdict``), :func:`vibration_modes`, :func:`marker_motion`; stepping from
+    outside (a controller, a co-simulation): :class:`Simulator` (``step(dt, inputs)``,
+    ``state``/``set_state``, ``result()``).
 Results
     :func:`marker_positions` (positions and deflections in ground or any link's axes),
     :func:`energies`, :func:`series` (any named history, stresses included),
@@ -53,7 +56,7 @@ from pipeline.dynamics import (
     static_equilibrium,
     vibration_modes,
 )
-from pipeline.dynamics.forces.loads import ForceCylinder, PointForce, Torque
+from pipeline.dynamics.forces.loads import ForceCylinder, JointForce, PointForce, Torque
 from pipeline.dynamics.forces.springs import JointSpringDamper, SpringDamper
 from pipeline.fem.stress import principal_stresses, von_mises
 from pipeline.invariants.participation import effective_mass_fractions
@@ -69,6 +72,7 @@ from pipeline.post.scene import Picture, Style, animate_machine, render_machine,
 from pipeline.post.shapes import LinkShape, shape_from_reduced
 from pipeline.post.vtk_series import write_vtk_series
 from pipeline.solver import Limits, SimulationResult, simulate
+from pipeline.solver.simulator import Simulator, SimulatorState
 from pipeline.workflow import build_machine, load_workflow, run_workflow
 from pipeline.workflow.build import kept_modes
 from pipeline.workflow.link_spec import load_link_spec
@@ -99,8 +103,9 @@ def reduce_link(spec: str | Path, cache_dir: str | Path = "output/links",
 
 __all__ = [
     "JOINTS", "BodyMass", "Constant", "Curve", "ForceCylinder", "Harmonic", "Joint",
-    "JointSpringDamper", "Limits", "LinkShape", "Panel", "Picture",
-    "PointForce", "Ramp", "ReducedLink", "SimulationResult", "SmoothStep", "SpringDamper",
+    "JointForce", "JointSpringDamper", "Limits", "LinkShape", "Panel", "Picture",
+    "PointForce", "Ramp", "ReducedLink", "SimulationResult", "Simulator",
+    "SimulatorState", "SmoothStep", "SpringDamper",
     "Style", "System", "Table", "Torque", "animate_machine", "body_from_reduced",
     "build_machine", "build_mechanism", "dof_report", "effective_mass_fractions", "energies",
     "initial_positions", "kept_modes", "kinetostatics", "link_from_reduced", "load_link_spec",

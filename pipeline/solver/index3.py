@@ -241,6 +241,15 @@ class Index3Stepper:
         """Forget the iteration matrix (after a failed step)."""
         self.S = None
 
+    def memory(self):
+        """A copy of what the next step reuses (the iteration matrix; :meth:`recall`)."""
+        return (None if self.S is None else (self.S[0], self.S[1].copy())), self.stale
+
+    def recall(self, memory) -> None:
+        """Reuse ``memory`` (from :meth:`memory`): the steps then repeat bit for bit."""
+        S, self.stale = memory
+        self.S = None if S is None else (S[0], S[1].copy())
+
 
 def powers(cs: ConstrainedSystem, st: ConstrainedState, v: np.ndarray) -> np.ndarray:
     """(driver power, -dissipated power) W at the state of ``st`` with rates v: the

@@ -60,6 +60,14 @@ class CompiledStepper:
     def reset(self):
         self.sinfo[0] = 0.0
 
+    def memory(self):
+        """A copy of what the next step reuses (the iteration matrix; :meth:`recall`)."""
+        return self.S.copy(), self.sinfo[:2].copy()
+
+    def recall(self, memory) -> None:
+        """Reuse ``memory`` (from :meth:`memory`): the steps then repeat bit for bit."""
+        self.S[:], self.sinfo[:2] = memory
+
     def _factors(self, times) -> np.ndarray:
         return force_factors(self.data, times)
 

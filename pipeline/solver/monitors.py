@@ -331,7 +331,8 @@ def _step_error(r: SimulationResult) -> list[str]:
     h = r.step_stats.get("h_max", 0.0)
     return [(f"the fixed step {h:.3g} s gives an estimated error of {ratio:.3g} x the "
              f"tolerance (rtol, atol), largest in {r.step_stats['error_coordinate']} at "
-             f"t = {r.step_stats['error_time']:.4g} s (the run again at twice the step); "
+             f"t = {r.step_stats['error_time']:.4g} s "
+             f"({r.step_stats.get('error_method', 'the run again at twice the step')}); "
              f"about {h / ratio:.2g} s would meet it, or omit the step for error control")]
 
 
