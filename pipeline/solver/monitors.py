@@ -33,6 +33,7 @@ Examples
 
 from __future__ import annotations
 
+import logging
 from collections import deque
 from dataclasses import dataclass, replace
 
@@ -40,6 +41,8 @@ import numpy as np
 
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.solver.result import SimulationResult
+
+logger = logging.getLogger(__name__)
 
 __all__ = ["ENERGY_NOISE", "Limits", "StallWatch", "check", "euler_loads", "judge",
            "link_sizes"]
@@ -292,22 +295,32 @@ def _axial_load(system, r: SimulationResult, lim: Limits, samples: int = 50) -> 
           if frame in ends.get(link, {})]
     if not at or not r.t.size or r.qdd is None:
         return []
-    if any(not (hasattr(f, "coordinate") or hasattr(f, "loads")) for f in system.forces):
-        return []  # an element known only by its generalized force: no joint reactions
+    opaque = [getattr(f, "name", type(f).__name__) for f in system.forces
+              if not (hasattr(f, "coordinate") or hasattr(f, "loads"))]
+    if opaque:  # known only by its generalized force: no joint reactions to read
+        logger.warning("the axial-load check of %s is skipped: force element(s) %s give no "
+                       "loads (Load list) for the joint reactions", sorted(ends), opaque)
+        return []
     worst: dict[str, tuple] = {}
     driven = list(r.driven or ())
+    failed, read = None, 0
     for k in _samples(r, samples, "q", "qd", "qdd"):
         act = dict(zip(driven, np.asarray(r.driver_forces)[k])) if driven else {}
         try:
             rx = joint_reactions(system, r.q[k], r.qd[k], r.qdd[k], float(r.t[k]), act)
-        except (PipelineError, FloatingPointError, np.linalg.LinAlgError):
-            continue  # a force element that fails there: the run says so itself
+        except (PipelineError, FloatingPointError, np.linalg.LinAlgError) as exc:
+            failed = exc  # a force element that fails there: the run says so itself
+            continue
+        read += 1
         A = evaluate_tree(mech, r.q[k], derivatives=False).A
         for j, link, frame, sign in at:
             e, ncr = ends[link][frame]
             N = sign * float(rx.force[j] @ (A[mech.link_index(link), :3, :3] @ e))
             if abs(N) / ncr > worst.get(link, (0.0,))[0]:
                 worst[link] = (abs(N) / ncr, N, ncr, frame, float(r.t[k]))
+    if failed is not None and not read:
+        logger.warning("the axial-load check of %s is skipped: the joint reactions could "
+                       "not be computed at any sampled time (%s)", sorted(ends), failed)
     out = []
     for link, (ratio, N, ncr, frame, t) in worst.items():
         if ratio > lim.axial:

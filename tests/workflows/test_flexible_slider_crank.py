@@ -206,3 +206,31 @@ def test_modes_clamped_at_the_crank_pin_converge_to_it_too(tmp_path, reference):
     assert r.success and r.verdict == "ok", r.message
     best = reference[2]
     assert np.abs(mid - best).max() < 1e-2 * np.abs(best).max()
+
+
+def test_a_check_that_cannot_be_made_says_so(tmp_path, caplog):
+    """The axial-load check reads joint reactions from the force elements' loads; an
+    element known only by its generalized force gives none, so the check cannot be made:
+    the log says which links went unchecked and why (it used to be skipped silently)."""
+    from dataclasses import replace
+
+    from pipeline.solver import simulate
+    from pipeline.solver.monitors import Limits, _axial_load
+
+    m = build_machine(load_workflow(WF, sets=["links.conrod.geometric_stiffening=false"]),
+                      tmp_path / "links")
+    r = simulate(m.system, m.q0, m.qd0, (0.0, 0.25), progress=False)
+    assert _axial_load(m.system, r, Limits())  # it finds the piston's load
+
+    class Opaque:
+        name = "user_damper"
+        conservative = False
+
+        def generalized_force(self, system, tree, q, qd, t):
+            return np.zeros_like(q)
+
+    system = replace(m.system, forces=(*m.system.forces, Opaque()))
+    with caplog.at_level("WARNING", logger="pipeline.solver.monitors"):
+        assert _axial_load(system, r, Limits()) == []
+    assert "the axial-load check of ['conrod'] is skipped" in caplog.text
+    assert "['user_damper'] give no loads" in caplog.text
