@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
 from pipeline.kinematics.compiled import _kernel as _kinematics
 from pipeline.kinematics.compiled import _mm, coordinate_vector
 

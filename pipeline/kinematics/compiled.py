@@ -35,6 +35,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
+
 __all__ = ["CompiledMechanism", "Evaluation", "compile_mechanism", "evaluate"]
 
 

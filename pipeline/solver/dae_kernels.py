@@ -8,8 +8,8 @@ closure rows, a saddle-point solve, Newton bookkeeping); in Python their call ov
 ~50x their arithmetic. Here a step of the rigid four-bar costs a few microseconds.
 
 Arguments are grouped in tuples: ``kin`` the CompiledMechanism arrays in the order of
-:func:`kin_tuple`, ``mass`` the CompiledMasses arrays, ``frc`` the force-element arrays of
-:class:`~pipeline.solver.dae_data.CompiledDae` and ``par`` the scalar settings
+:func:`kin_tuple`, ``mass`` the CompiledMasses arrays, ``frc`` the force elements' ForceData
+(:mod:`pipeline.dynamics.forces.compiled`) and ``par`` the scalar settings
 (alpha_m, alpha_f, beta, gamma, rtol, atol, closure_tol, jump, eps).
 """
 
@@ -18,7 +18,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
 from pipeline.dynamics.compiled import _kernel as _inertia
+from pipeline.dynamics.forces.compiled import generalized_forces, potential
 from pipeline.kinematics.compiled import _kernel as _kinematics
 from pipeline.solver.generalized_alpha import NEWTON_SHARE
 
@@ -38,74 +40,6 @@ def mass_tuple(cm) -> tuple:
 
 
 @njit(cache=True)
-def _marker_point(k, q, A, dA, mlink, mc0, mca, midx, mnm, mhe, mhn, p, dp):
-    """p (3,) = a marker point in ground, dp (n, 3) its derivatives (module dae_data)."""
-    li = mlink[k]
-    loc = mc0[k].copy()
-    for a in range(mnm[k]):
-        qa = q[midx[k, a]]
-        loc += qa * mca[k, a]
-        for b in range(mhn[k]):
-            loc += 0.5 * qa * q[midx[k, b]] * mhe[k, a, b]
-    for r in range(3):
-        p[r] = A[li, r, 3] + A[li, r, 0] * loc[0] + A[li, r, 1] * loc[1] + A[li, r, 2] * loc[2]
-    n = q.shape[0]
-    for i in range(n):
-        for r in range(3):
-            dp[i, r] = dA[li, i, r, 3] + dA[li, i, r, 0] * loc[0] + dA[li, i, r, 1] * loc[1] \
-                + dA[li, i, r, 2] * loc[2]
-    ca = np.empty(3)
-    for a in range(mnm[k]):
-        i = midx[k, a]
-        ca[:] = mca[k, a]
-        for b in range(mhn[k]):
-            ca += mhe[k, a, b] * q[midx[k, b]]
-        for r in range(3):
-            dp[i, r] += A[li, r, 0] * ca[0] + A[li, r, 1] * ca[1] + A[li, r, 2] * ca[2]
-
-
-@njit(cache=True)
-def _forces(q, v, A, dA, factor, frc, Q, Qnc):
-    """Add every compiled force element's generalized force to Q and its non-conservative
-    part to Qnc (see :mod:`pipeline.solver.dae_data` for the kinds)."""
-    fkind, fint, fpar, fcons, mlink, mc0, mca, midx, mnm, mhe, mhn = frc
-    n = q.shape[0]
-    pa, pb = np.zeros(3), np.zeros(3)
-    da, db = np.zeros((n, 3)), np.zeros((n, 3))
-    for e in range(fkind.shape[0]):
-        kind = fkind[e]
-        if kind == 0:
-            i = fint[e, 0]
-            Q[i] += -fpar[e, 0] * (q[i] - fpar[e, 1]) - fpar[e, 2] * v[i]
-            Qnc[i] += -fpar[e, 2] * v[i]
-        elif kind == 1:
-            i = fint[e, 0]
-            Q[i] += fpar[e, 3] * factor[e]
-            if not fcons[e]:
-                Qnc[i] += fpar[e, 3] * factor[e]
-        elif kind == 2:
-            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, mhn, pa, da)
-            _marker_point(fint[e, 1], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, mhn, pb, db)
-            d = pb - pa
-            length = np.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
-            u = d / length
-            dl = (db - da) @ u
-            rate = dl @ v
-            tension = fpar[e, 3] + fpar[e, 0] * (length - fpar[e, 1]) + fpar[e, 2] * rate
-            for i in range(n):
-                Q[i] -= tension * dl[i]
-                Qnc[i] -= fpar[e, 2] * rate * dl[i]
-        else:
-            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, mhn, pa, da)
-            for i in range(n):
-                s = factor[e] * (da[i, 0] * fpar[e, 3] + da[i, 1] * fpar[e, 4]
-                                 + da[i, 2] * fpar[e, 5])
-                Q[i] += s
-                if not fcons[e]:
-                    Qnc[i] += s
-
-
-@njit(cache=True)
 def terms(q, v, factor, kin, mass, K, D, g, w, frc):
     """(M (n, n), rhs (n,), Q_nc (n,), c (m,), C (m, n), gamma (m,)) at (q, v): the
     equations M q'' + C^T lambda = rhs, c = w Phi, C = dc/dq, C q'' = gamma (weighted)."""
@@ -119,7 +53,7 @@ def _terms(q, v, factor, kin, mass, K, D, g, w, frc):
     M, hv, Qg = _inertia(q, v, True, A, dA, Ad, Add, g, *mass)
     Qnc = -(D @ v)
     Qf = np.zeros(q.shape[0])
-    _forces(q, v, A, dA, factor, frc, Qf, Qnc)
+    generalized_forces(q, v, A, dA, factor, frc, Qf, Qnc)
     rhs = Qg - K @ q - (D @ v) + Qf - hv
     m = r.shape[0]
     c = np.empty(m)
@@ -425,32 +359,6 @@ def _gravity_potential(q, A, g, mass):
 
 
 @njit(cache=True)
-def _force_potential(q, A, dA, frc):
-    """Potential energy (J) of the conservative compiled force elements."""
-    fkind, fint, fpar, fcons, mlink, mc0, mca, midx, mnm, mhe, mhn = frc
-    n = q.shape[0]
-    V = 0.0
-    p, pb = np.zeros(3), np.zeros(3)
-    dp = np.zeros((n, 3))
-    for e in range(fkind.shape[0]):
-        kind = fkind[e]
-        if kind == 0:
-            x = q[fint[e, 0]] - fpar[e, 1]
-            V += 0.5 * fpar[e, 0] * x * x
-        elif kind == 1 and fcons[e]:
-            V -= fpar[e, 3] * q[fint[e, 0]]
-        elif kind == 2:
-            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, mhn, p, dp)
-            _marker_point(fint[e, 1], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, mhn, pb, dp)
-            x = np.sqrt(np.sum((pb - p) ** 2)) - fpar[e, 1]
-            V += fpar[e, 3] * x + 0.5 * fpar[e, 0] * x * x
-        elif kind == 3 and fcons[e]:
-            _marker_point(fint[e, 0], q, A, dA, mlink, mc0, mca, midx, mnm, mhe, mhn, p, dp)
-            V -= fpar[e, 3] * p[0] + fpar[e, 4] * p[1] + fpar[e, 5] * p[2]
-    return V
-
-
-@njit(cache=True)
 def _sub(C, cols):
     out = np.empty((C.shape[0], cols.shape[0]))
     for i in range(C.shape[0]):
@@ -530,7 +438,7 @@ def output(q, v, qP, vP, aP, factor, U, P, rank_rtol, kin, mass, K, D, g, w, frc
     e[0] = 0.5 * v @ (M @ v)
     e[1] = _gravity_potential(q, A, g, mass)
     e[2] = 0.5 * q @ (K @ q)
-    e[3] = _force_potential(q, A, dA, frc)
+    e[3] = potential(q, A, dA, frc)
     res = 0.0
     for i in range(m):
         res = max(res, abs(r[i]))

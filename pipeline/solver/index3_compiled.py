@@ -38,9 +38,7 @@ class CompiledStepper:
         self.S = np.zeros((cs.U.size, cs.U.size))
         self.sinfo = np.zeros(4)  # h of S (0: none), stale, Jacobians, evaluations
         self.args = (K.kin_tuple(data.kin), K.mass_tuple(data.masses), data.K, data.D,
-                     data.gravity4, data.w,
-                     (data.fkind, data.fint, data.fpar, data.fcons, data.mlink, data.mc0,
-                      data.mca, data.midx, data.mnm, data.mhe, data.mhn))
+                     data.gravity4, data.w, data.forces)
 
     @property
     def evaluations(self) -> int:

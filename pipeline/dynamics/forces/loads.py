@@ -14,10 +14,12 @@ True
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
+from numba import njit
 
+from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
 from pipeline.core.errors import ConfigError
 from pipeline.core.validate import validate_array
 from pipeline.dynamics.forces.base import (
@@ -29,6 +31,14 @@ from pipeline.dynamics.forces.base import (
     marker_twist,
     point_load,
     unit_jacobian,
+)
+from pipeline.dynamics.forces.markers import (
+    frame_twist,
+    line_geometry,
+    marker_frame,
+)
+from pipeline.dynamics.forces.markers import (
+    marker_point as point_kernel,
 )
 
 __all__ = [
@@ -65,10 +75,17 @@ class PointForce(ForceElement):
     force: tuple
     offset: tuple = (0.0, 0.0, 0.0)
     history: Any = None
+    #: kind of the compiled form (:mod:`pipeline.dynamics.forces.compiled`)
+    KIND: ClassVar[int] = 3
 
     def __post_init__(self):
         validate_array(self.force, (3,), f"force element '{self.name}': force")
         validate_array(self.offset, (3,), f"force element '{self.name}': offset")
+
+    def pack(self, mech, markers) -> tuple:
+        """(ints (4,), par (6,), table rows or None) of the compiled form."""
+        return ([markers.add(self.marker, self.offset), 0, 0, 0],
+                [0.0, 0.0, 0.0, *np.asarray(self.force, dtype=float)], None)
 
     @property
     def conservative(self) -> bool:
@@ -101,6 +118,8 @@ class PointForce(ForceElement):
 class FollowerForce(PointForce):
     """Force (3,) N given in the marker frame's axes (turns with the marker)."""
 
+    KIND: ClassVar[int] = 5
+
     @property
     def conservative(self) -> bool:
         return False
@@ -122,6 +141,12 @@ class LineForce(ForceElement):
     marker_b: tuple[str, str]
     force: float
     history: Any = None
+    KIND: ClassVar[int] = 6
+
+    def pack(self, mech, markers) -> tuple:
+        """(ints, par, table rows or None) of the compiled form."""
+        return ([markers.add(self.marker_a), markers.add(self.marker_b), 0, 0],
+                [0.0, 0.0, 0.0, float(self.force), 0.0, 0.0], None)
 
     @property
     def conservative(self) -> bool:
@@ -163,9 +188,15 @@ class Torque(ForceElement):
     torque: tuple
     follower: bool = False
     history: Any = None
+    KIND: ClassVar[int] = 7
 
     def __post_init__(self):
         validate_array(self.torque, (3,), f"force element '{self.name}': torque")
+
+    def pack(self, mech, markers) -> tuple:
+        """(ints, par, table rows or None) of the compiled form."""
+        return ([markers.add(self.marker), int(bool(self.follower)), 0, 0],
+                [0.0, 0.0, 0.0, *np.asarray(self.torque, dtype=float)], None)
 
     def validate(self, system) -> None:
         check_marker(system, self.marker, self.name, "marker")
@@ -191,6 +222,12 @@ class JointForce(ForceElement):
     coordinate: str
     force: float = 1.0
     history: Any = None
+    KIND: ClassVar[int] = 1
+
+    def pack(self, mech, markers) -> tuple:
+        """(ints, par, table rows or None) of the compiled form."""
+        return ([mech.index(self.coordinate), 0, 0, 0],
+                [0.0, 0.0, 0.0, float(self.force), 0.0, 0.0], None)
 
     @property
     def conservative(self) -> bool:
@@ -227,3 +264,93 @@ class ForceCylinder(JointForce):
         if kind not in ("prismatic", "cylindrical") or not self.coordinate.endswith(".d"):
             raise ConfigError(f"force element '{self.name}': coordinate: expected the stroke "
                               f"of a prismatic joint, got '{self.coordinate}'")
+
+
+# --------------------------------------------------------------------------- compiled forms
+# Each kernel adds element e's generalized force to Q and its non-conservative part to Qnc,
+# or returns its potential energy, from the flat ForceData d (pipeline.dynamics.forces.
+# markers) and the history factor (F,) of each element at the time; the numpy methods
+# above are their reference (tests/solver/test_compiled_step).
+
+@njit(cache=True)
+def coordinate_force(e, q, v, A, dA, factor, d, Q, Qnc):
+    i = d.ints[e, 0]
+    f = d.par[e, 3] * factor[e]
+    Q[i] += f
+    if not d.conservative[e]:
+        Qnc[i] += f
+
+
+@njit(cache=True)
+def coordinate_potential(e, q, A, dA, d):
+    return -d.par[e, 3] * q[d.ints[e, 0]] if d.conservative[e] else 0.0
+
+
+@njit(cache=True)
+def _add_along(dp, F, Q, Qnc, conservative):
+    for i in range(Q.shape[0]):
+        s = dp[i, 0] * F[0] + dp[i, 1] * F[1] + dp[i, 2] * F[2]
+        Q[i] += s
+        if not conservative:
+            Qnc[i] += s
+
+
+@njit(cache=True)
+def point_force(e, q, v, A, dA, factor, d, Q, Qnc):
+    p, dp = np.zeros(3), np.zeros((q.shape[0], 3))
+    point_kernel(d.ints[e, 0], q, A, dA, d, p, dp)
+    _add_along(dp, factor[e] * d.par[e, 3:6], Q, Qnc, d.conservative[e])
+
+
+@njit(cache=True)
+def point_potential(e, q, A, dA, d):
+    if not d.conservative[e]:
+        return 0.0
+    p, dp = np.zeros(3), np.zeros((q.shape[0], 3))
+    point_kernel(d.ints[e, 0], q, A, dA, d, p, dp)
+    return -(d.par[e, 3] * p[0] + d.par[e, 4] * p[1] + d.par[e, 5] * p[2])
+
+
+@njit(cache=True)
+def follower_force(e, q, v, A, dA, factor, d, Q, Qnc):
+    n = q.shape[0]
+    p, dp = np.zeros(3), np.zeros((n, 3))
+    R, dR = np.zeros((3, 3)), np.zeros((n, 3, 3))
+    point_kernel(d.ints[e, 0], q, A, dA, d, p, dp)
+    marker_frame(d.ints[e, 0], q, A, dA, d, R, dR)
+    _add_along(dp, R @ (factor[e] * d.par[e, 3:6]), Q, Qnc, False)
+
+
+@njit(cache=True)
+def line_force(e, q, v, A, dA, factor, d, Q, Qnc):
+    _, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
+    f = factor[e] * d.par[e, 3]
+    for i in range(q.shape[0]):
+        Q[i] += f * dl[i]
+        if not d.conservative[e]:
+            Qnc[i] += f * dl[i]
+
+
+@njit(cache=True)
+def line_potential(e, q, A, dA, d):
+    if not d.conservative[e]:
+        return 0.0
+    length, _ = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
+    return -d.par[e, 3] * length
+
+
+@njit(cache=True)
+def torque(e, q, v, A, dA, factor, d, Q, Qnc):
+    n = q.shape[0]
+    R, dR, w = np.zeros((3, 3)), np.zeros((n, 3, 3)), np.zeros((n, 3))
+    marker_frame(d.ints[e, 0], q, A, dA, d, R, dR)
+    frame_twist(R, dR, w)
+    T = factor[e] * d.par[e, 3:6]
+    if d.ints[e, 1]:  # given in the marker frame's axes
+        T = R @ T
+    _add_along(w, T, Q, Qnc, False)
+
+
+@njit(cache=True)
+def no_potential(e, q, A, dA, d):
+    return 0.0

@@ -15,9 +15,12 @@ Examples
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
+from numba import njit
 
+from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
 from pipeline.core.errors import ConfigError
 from pipeline.core.validate import validate_array
 from pipeline.dynamics.forces.base import (
@@ -28,6 +31,7 @@ from pipeline.dynamics.forces.base import (
     point_load,
     unit_jacobian,
 )
+from pipeline.dynamics.forces.markers import line_geometry
 
 __all__ = ["JointSpringDamper", "SpringDamper", "TableSpringDamper"]
 
@@ -52,10 +56,19 @@ class SpringDamper(ForceElement):
     damping: float = 0.0
     preload: float = 0.0
 
+    #: kind of the compiled form (:mod:`pipeline.dynamics.forces.compiled`)
+    KIND: ClassVar[int] = 2
+
     def __post_init__(self):
         _nonneg(self.stiffness, self.name, "stiffness")
         _nonneg(self.damping, self.name, "damping")
         _nonneg(self.free_length, self.name, "free_length")
+
+    def pack(self, mech, markers) -> tuple:
+        """(ints (4,), par (6,), table rows or None) of the compiled form."""
+        return ([markers.add(self.marker_a), markers.add(self.marker_b), 0, 0],
+                [self.stiffness, self.free_length, self.damping, self.preload, 0.0, 0.0],
+                None)
 
     @property
     def conservative(self) -> bool:
@@ -114,6 +127,15 @@ class TableSpringDamper(SpringDamper):
 
     deflection: tuple = ()
     force: tuple = ()
+    KIND: ClassVar[int] = 4
+
+    def pack(self, mech, markers) -> tuple:
+        """(ints, par, table rows (k, 3): deflection m, tension N, int_0^x f dx J)."""
+        xs, fs = np.asarray(self.deflection), np.asarray(self.force)
+        cum = np.concatenate([[0.0], np.cumsum(0.5 * (fs[1:] + fs[:-1]) * np.diff(xs))])
+        return ([markers.add(self.marker_a), markers.add(self.marker_b), 0, xs.size],
+                [0.0, self.free_length, self.damping, 0.0, self._integral(0.0), 0.0],
+                np.column_stack([xs, fs, cum]))
 
     def __post_init__(self):
         super().__post_init__()
@@ -159,9 +181,16 @@ class JointSpringDamper(ForceElement):
     free_value: float = 0.0
     damping: float = 0.0
 
+    KIND: ClassVar[int] = 0
+
     def __post_init__(self):
         _nonneg(self.stiffness, self.name, "stiffness")
         _nonneg(self.damping, self.name, "damping")
+
+    def pack(self, mech, markers) -> tuple:
+        """(ints, par, table rows or None) of the compiled form."""
+        return ([mech.index(self.coordinate), 0, 0, 0],
+                [self.stiffness, self.free_value, self.damping, 0.0, 0.0, 0.0], None)
 
     @property
     def conservative(self) -> bool:
@@ -189,3 +218,72 @@ class JointSpringDamper(ForceElement):
     def potential_energy(self, system, tree, q) -> float:
         x = q[system.mechanism.index(self.coordinate)] - self.free_value
         return 0.5 * self.stiffness * x * x
+
+
+# --------------------------------------------------------------------------- compiled forms
+# Each kernel adds element e's generalized force to Q and its non-conservative part to Qnc,
+# or returns its potential energy, from the flat ForceData d (pipeline.dynamics.forces.
+# markers); the numpy methods above are their reference (tests/solver/test_compiled_step).
+
+@njit(cache=True)
+def joint_spring_force(e, q, v, A, dA, factor, d, Q, Qnc):
+    i = d.ints[e, 0]
+    Q[i] += -d.par[e, 0] * (q[i] - d.par[e, 1]) - d.par[e, 2] * v[i]
+    Qnc[i] += -d.par[e, 2] * v[i]
+
+
+@njit(cache=True)
+def joint_spring_potential(e, q, A, dA, d):
+    x = q[d.ints[e, 0]] - d.par[e, 1]
+    return 0.5 * d.par[e, 0] * x * x
+
+
+@njit(cache=True)
+def _add_tension(tension, damper, dl, Q, Qnc):
+    for i in range(Q.shape[0]):
+        Q[i] -= tension * dl[i]
+        Qnc[i] -= damper * dl[i]
+
+
+@njit(cache=True)
+def line_spring_force(e, q, v, A, dA, factor, d, Q, Qnc):
+    length, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
+    damper = d.par[e, 2] * (dl @ v)
+    _add_tension(d.par[e, 3] + d.par[e, 0] * (length - d.par[e, 1]) + damper, damper, dl, Q,
+                 Qnc)
+
+
+@njit(cache=True)
+def line_spring_potential(e, q, A, dA, d):
+    length, _ = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
+    x = length - d.par[e, 1]
+    return d.par[e, 3] * x + 0.5 * d.par[e, 0] * x * x
+
+
+@njit(cache=True)
+def _table_segment(d, e, x):
+    """(first row k of the segment holding deflection x, its slope f' N/m)."""
+    start, count = d.ints[e, 2], d.ints[e, 3]
+    k = 0
+    while k < count - 2 and d.table[start + k + 1, 0] < x:
+        k += 1
+    r = start + k
+    return r, (d.table[r + 1, 1] - d.table[r, 1]) / (d.table[r + 1, 0] - d.table[r, 0])
+
+
+@njit(cache=True)
+def table_spring_force(e, q, v, A, dA, factor, d, Q, Qnc):
+    length, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
+    x = length - d.par[e, 1]
+    r, slope = _table_segment(d, e, x)
+    damper = d.par[e, 2] * (dl @ v)
+    _add_tension(d.table[r, 1] + slope * (x - d.table[r, 0]) + damper, damper, dl, Q, Qnc)
+
+
+@njit(cache=True)
+def table_spring_potential(e, q, A, dA, d):
+    length, _ = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
+    x = length - d.par[e, 1]
+    r, slope = _table_segment(d, e, x)
+    dx = x - d.table[r, 0]
+    return d.table[r, 2] + d.table[r, 1] * dx + 0.5 * slope * dx * dx - d.par[e, 4]

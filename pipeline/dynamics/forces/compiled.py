@@ -1,0 +1,137 @@
+"""The force elements of a system in compiled form: packed into one :class:`~pipeline.
+dynamics.forces.markers.ForceData` and evaluated by the kernels their own modules define.
+
+Every built-in element class declares its ``KIND`` and ``pack(mech, markers)`` (its rows of
+the flat data) next to its numpy methods, and the module defines its compiled kernels;
+:data:`KERNELS` names them per kind, and the two dispatchers below call them. A new element
+kind adds its class with ``KIND``, ``pack`` and its two kernels in its module, and one
+branch in each dispatcher (numba calls compiled functions only by name);
+``tests/solver/test_compiled_step.py`` fails for an element class without them. An
+element without a compiled form (a user's own class) runs on the numpy step, and the run
+says so.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
+from pipeline.dynamics.forces import loads as L
+from pipeline.dynamics.forces import springs as S
+from pipeline.dynamics.forces.loads import history_value
+from pipeline.dynamics.forces.markers import ForceData, MarkerTable
+
+__all__ = ["KERNELS", "compile_forces", "force_factors", "generalized_forces", "potential",
+           "uncompiled"]
+
+JOINT_SPRING = S.JointSpringDamper.KIND
+COORDINATE_FORCE = L.JointForce.KIND
+LINE_SPRING = S.SpringDamper.KIND
+POINT_FORCE = L.PointForce.KIND
+TABLE_SPRING = S.TableSpringDamper.KIND
+FOLLOWER_FORCE = L.FollowerForce.KIND
+LINE_FORCE = L.LineForce.KIND
+TORQUE = L.Torque.KIND
+
+#: kind -> (element classes, force kernel, potential kernel)
+KERNELS = {
+    JOINT_SPRING: ((S.JointSpringDamper,), S.joint_spring_force, S.joint_spring_potential),
+    COORDINATE_FORCE: ((L.JointForce, L.ForceCylinder), L.coordinate_force,
+                       L.coordinate_potential),
+    LINE_SPRING: ((S.SpringDamper,), S.line_spring_force, S.line_spring_potential),
+    POINT_FORCE: ((L.PointForce,), L.point_force, L.point_potential),
+    TABLE_SPRING: ((S.TableSpringDamper,), S.table_spring_force, S.table_spring_potential),
+    FOLLOWER_FORCE: ((L.FollowerForce,), L.follower_force, L.no_potential),
+    LINE_FORCE: ((L.LineForce,), L.line_force, L.line_potential),
+    TORQUE: ((L.Torque,), L.torque, L.no_potential),
+}
+
+
+def uncompiled(forces) -> list[str]:
+    """The names of the elements among ``forces`` that have no compiled form."""
+    return [getattr(f, "name", type(f).__name__) for f in forces
+            if type(f) not in KERNELS.get(getattr(type(f), "KIND", None), ((),))[0]]
+
+
+def compile_forces(system) -> tuple[ForceData, tuple] | None:
+    """(the flat data of ``system.forces``, each element's history or None), or None when
+    an element has no compiled form."""
+    mech = system.mechanism
+    markers = MarkerTable(mech)
+    kinds, ints, pars, cons, tables, hist = [], [], [], [], [], []
+    rows = 0
+    if uncompiled(system.forces):
+        return None  # a user's element: the numpy step
+    for f in system.forces:
+        i, p, table = f.pack(mech, markers)
+        if table is not None:
+            i = [i[0], i[1], rows, len(table)]
+            tables.append(np.asarray(table, dtype=float))
+            rows += len(table)
+        kinds.append(type(f).KIND)
+        ints.append(i)
+        pars.append(p)
+        cons.append(bool(f.conservative))
+        hist.append(getattr(f, "history", None))
+    table = np.concatenate(tables) if tables else np.zeros((0, 3))
+    data = ForceData(np.array(kinds, dtype=np.int64).reshape(-1),
+                     np.array(ints, dtype=np.int64).reshape(-1, 4),
+                     np.array(pars, dtype=float).reshape(-1, 6),
+                     np.array(cons, dtype=np.bool_).reshape(-1), table, *markers.arrays())
+    return data, tuple(hist)
+
+
+def force_factors(histories: tuple, times: np.ndarray) -> np.ndarray:
+    """(k, F): each force element's history value at the times (k,) s (1 without one)."""
+    times = np.asarray(times, dtype=float).reshape(-1)
+    out = np.ones((times.size, len(histories)))
+    for j, h in enumerate(histories):
+        if h is not None:
+            out[:, j] = [history_value(h, float(x), "history") for x in times]
+    return out
+
+
+@njit(cache=True)
+def generalized_forces(q, v, A, dA, factor, d, Q, Qnc):
+    """Add every element's generalized force to Q (n,) and its non-conservative part to
+    Qnc (n,) at (q, v) with the link poses A, dA and the history factors (F,)."""
+    for e in range(d.kind.shape[0]):
+        kind = d.kind[e]
+        if kind == JOINT_SPRING:
+            S.joint_spring_force(e, q, v, A, dA, factor, d, Q, Qnc)
+        elif kind == COORDINATE_FORCE:
+            L.coordinate_force(e, q, v, A, dA, factor, d, Q, Qnc)
+        elif kind == LINE_SPRING:
+            S.line_spring_force(e, q, v, A, dA, factor, d, Q, Qnc)
+        elif kind == POINT_FORCE:
+            L.point_force(e, q, v, A, dA, factor, d, Q, Qnc)
+        elif kind == TABLE_SPRING:
+            S.table_spring_force(e, q, v, A, dA, factor, d, Q, Qnc)
+        elif kind == FOLLOWER_FORCE:
+            L.follower_force(e, q, v, A, dA, factor, d, Q, Qnc)
+        elif kind == LINE_FORCE:
+            L.line_force(e, q, v, A, dA, factor, d, Q, Qnc)
+        elif kind == TORQUE:
+            L.torque(e, q, v, A, dA, factor, d, Q, Qnc)
+
+
+@njit(cache=True)
+def potential(q, A, dA, d):
+    """Potential energy (J) of the conservative elements."""
+    V = 0.0
+    for e in range(d.kind.shape[0]):
+        kind = d.kind[e]
+        if kind == JOINT_SPRING:
+            V += S.joint_spring_potential(e, q, A, dA, d)
+        elif kind == COORDINATE_FORCE:
+            V += L.coordinate_potential(e, q, A, dA, d)
+        elif kind == LINE_SPRING:
+            V += S.line_spring_potential(e, q, A, dA, d)
+        elif kind == POINT_FORCE:
+            V += L.point_potential(e, q, A, dA, d)
+        elif kind == TABLE_SPRING:
+            V += S.table_spring_potential(e, q, A, dA, d)
+        elif kind == LINE_FORCE:
+            V += L.line_potential(e, q, A, dA, d)
+    return V
