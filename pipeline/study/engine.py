@@ -1,7 +1,9 @@
 """Running a study's cases on ``dask.distributed`` and writing its table.
 
 * The reduced links are built once, in this process, into the content-addressed link
-  cache; the workers find them there (a case never reduces a link another built).
+  cache; they reach the workers through Dask with the workflow's files
+  (:mod:`pipeline.study.bundle`: sent once per worker), so workers need no shared disk and
+  a case never reduces a link another built.
 * Each case is a task (:func:`run_case`, a plain function of plain values): it loads the
   base workflow with the case's overrides, runs the analyses and returns its status, the
   compared series and the derived outputs. A worker that dies costs only the case it held
@@ -32,6 +34,7 @@ import numpy as np
 from pipeline.core.atomic import atomic_open, atomic_path, save_npz_atomic
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.core.progress import TaskBoard, stage
+from pipeline.study.bundle import BundlePlugin
 from pipeline.study.cases import Case, study_cases
 from pipeline.study.spec import load_study, mode_text
 
@@ -110,6 +113,22 @@ def run_case(base: str, quick: bool, overrides: dict, label: str, analyses, cach
             "series": out_series, "outputs": derived}
 
 
+def run_bundled_case(key: str, workflow: str, quick: bool, overrides: dict, label: str,
+                     analyses, series_names: list, outputs: list,
+                     world: dict | None = None) -> dict:
+    """:func:`run_case` from the study's files as the worker unpacked them
+    (:class:`~pipeline.study.bundle.BundlePlugin`; ``key`` the bundle's, ``workflow`` the
+    base workflow's path in it)."""
+    from pipeline.study.bundle import bundle_folder
+
+    root = bundle_folder(key)
+    if not (root / ".complete").is_file():
+        return {"status": "error", "message": "the study's files were not unpacked on this "
+                "worker (see its log)", "seconds": 0.0, "series": {}, "outputs": {}}
+    return run_case(str(root / workflow), quick, overrides, label, analyses,
+                    str(root / "links"), series_names, outputs, world)
+
+
 #: how many of the machine's lowest frequencies a truncation study compares
 FREQUENCIES = 3
 
@@ -151,8 +170,8 @@ def run_study(study: str | Path, *, out_root: str | Path = "output", workers: in
     ----------
     workers : processes of the local cluster (ignored with ``scheduler``).
     scheduler : address of an existing Dask scheduler (``tcp://host:8786``).
-    cache_dir : reduced-link cache, shared with the workers (default
-        ``<out_root>/links``; with a remote cluster it must be on a shared filesystem).
+    cache_dir : reduced-link cache of this process (default ``<out_root>/links``); the
+        workers get the links they need through Dask and need no shared filesystem.
     worker_timeout : seconds the study waits while the cluster has no worker at all
         before the cases left are ``lost`` (an external cluster whose workers died).
 
@@ -192,9 +211,10 @@ def _study_locked(study, spec, base, folder, cache, workers, scheduler,
     todo = [c for c in cases if c.input_hash not in old or not _case_intact(folder, c)]
     with stage(f"study {spec.name}: links"):
         machine = build_machine(wf, cache)  # reductions shared by content hash with every case
+        machines = [machine]
         for c in todo:
             if any(".spec" in k for k in c.overrides):
-                build_machine(wf.for_case(c.overrides, c.label), cache)
+                machines.append(build_machine(wf.for_case(c.overrides, c.label), cache))
         _check_mode_counts(spec, wf, machine, todo, study)
     world = world_frames(machine, spec, flexible)
     done = dict(old)
@@ -205,8 +225,11 @@ def _study_locked(study, spec, base, folder, cache, workers, scheduler,
         _write_table(folder, [done[k.input_hash] for k in cases if k.input_hash in done])
 
     if todo:
-        _run(spec, base, todo, cache, workers, scheduler, folder, world, finished,
-             worker_timeout)
+        from pipeline.study.bundle import study_bundle
+
+        bundle = study_bundle(wf, _inputs(wf) + _geometry_files(wf),
+                              _artifact_folders(machines, cache), cache)
+        _run(spec, bundle, todo, workers, scheduler, folder, world, finished, worker_timeout)
     rows = [done.get(c.input_hash) for c in cases]
     recommendation = recommend(spec, cases, folder) if spec.truncation else {}
     _write_table(folder, rows)
@@ -242,6 +265,31 @@ def _plots(folder, spec, cases, rows, recommendation) -> None:
     for o in spec.outputs:
         for p in params:
             plot_outputs(folder / f"{o.name}_vs_{p.replace('.', '_')}.png", design, o.name, p)
+
+
+def _geometry_files(wf) -> list[Path]:
+    """The geometry files (STEP, .geo) the base workflow's link specs read."""
+    from pipeline.workflow.build import _link_spec
+    from pipeline.workflow.link_build import link_request
+
+    files = []
+    for name, entry in wf.spec.links.items():
+        if getattr(entry, "spec", None) is not None:
+            spec, base_dir = _link_spec(wf, name, entry)
+            files += link_request(spec, base_dir)[1]
+    return files
+
+
+def _artifact_folders(machines, cache: Path) -> list[str]:
+    """The folders of the link cache holding the reduced links of ``machines``."""
+    out = set()
+    for m in machines:
+        for part in m.parts.values():
+            digest = part.reduced.meta.get("input_hash", "")
+            folder = f"{part.reduced.name}-{digest[:12]}"
+            if (Path(cache) / folder).is_dir():
+                out.add(folder)
+    return sorted(out)
 
 
 def _inputs(wf) -> list[Path]:
@@ -356,12 +404,13 @@ def _quiet_distributed():
             h.removeFilter(one_line)
 
 
-def _run(spec, base, todo, cache, workers, scheduler, folder, world, finished,
+def _run(spec, bundle, todo, workers, scheduler, folder, world, finished,
          worker_timeout: float = WORKER_TIMEOUT) -> None:
-    """Run ``todo`` on the cluster; each finished case's row goes to ``finished(case,
-    row)`` as it arrives (its series saved first). A cluster left without a worker for
-    ``worker_timeout`` s (an external one whose workers died) ends the cases left as
-    ``lost``, with that reason, instead of waiting for ever."""
+    """Run ``todo`` on the cluster from ``bundle`` (the study's files, sent once to each
+    worker); each finished case's row goes to ``finished(case, row)`` as it arrives (its
+    series saved first). A cluster left without a worker for ``worker_timeout`` s (an
+    external one whose workers died) ends the cases left as ``lost``, with that reason,
+    instead of waiting for ever."""
     try:
         from distributed import Client, LocalCluster, wait
     except ImportError:
@@ -378,9 +427,13 @@ def _run(spec, base, todo, cache, workers, scheduler, folder, world, finished,
                                    dashboard_address=None)
         client = Client(scheduler or cluster)
         try:
-            futures = {client.submit(run_case, str(base), spec.quick,
+            logger.info("study %s: sending its files and reduced links (%.1f MB) to the "
+                        "workers", spec.name, bundle.size / 1e6)
+            plugin = BundlePlugin(bundle)
+            client.register_plugin(plugin, name=plugin.name)
+            futures = {client.submit(run_bundled_case, bundle.key, bundle.workflow, spec.quick,
                                      {**spec.set, **c.overrides}, c.label,
-                                     spec.analyses, str(cache), names, outs,
+                                     spec.analyses, names, outs,
                                      world if c.kind == "truncation" else None, pure=False,
                                      key=f"case-{c.input_hash[:16]}"): k
                        for k, c in enumerate(todo)}
@@ -425,6 +478,8 @@ def _run(spec, base, todo, cache, workers, scheduler, folder, world, finished,
                             f"the cluster had no worker for {worker_timeout:g} s"))
                     pending.clear()
         finally:
+            with contextlib.suppress(Exception):  # a scheduler that is gone keeps nothing
+                client.unregister_worker_plugin(f"flexmech-bundle-{bundle.key[:16]}")
             client.close()
             if cluster is not None:
                 cluster.close()

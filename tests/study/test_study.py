@@ -280,3 +280,65 @@ def test_loader_study_names_a_count_per_flexible_link(tmp_path, links):
     assert rec["lift_arm"]["recommended"] == "count=6"
     assert max(rec["lift_arm"]["evidence"]["3"].values()) > 0.02
     assert rec["lower_link"]["recommended"] == rec["upper_link"]["recommended"] == "0"
+
+
+def test_workers_that_cannot_see_the_clients_files_give_the_local_results(local, links,
+                                                                          tmp_path):
+    """Issue 26 (7): the workers are started in a mount namespace of their own with an
+    empty tmpfs over the client's project, output and link-cache folders; the study's
+    files and reduced links reach them through Dask, and the results equal the local
+    run's bit for bit."""
+    if shutil.which("unshare") is None or subprocess.run(
+            ["unshare", "-m", "--propagation", "private", "true"],
+            capture_output=True).returncode != 0:
+        pytest.skip("private mount namespaces are not available (unshare -m, as root)")
+    dask = shutil.which("dask")
+    if dask is None:
+        pytest.skip("the dask command is not installed")
+    hidden = tmp_path / "client"
+    project = hidden / "project"
+    (project / "workflows").mkdir(parents=True)
+    (project / "meshes").mkdir()
+    shutil.copy(ROOT / "workflows" / "mobile_crane.yaml", project / "workflows")
+    shutil.copy(ROOT / "meshes" / "crane_boom.yaml", project / "meshes")
+    study = project / "crane.yaml"
+    study.write_text(CRANE.replace(str(ROOT / "workflows"), str(project / "workflows")))
+    sf = tmp_path / "scheduler.json"  # outside the hidden folder: the workers read it
+    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+    sched = subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", "0",
+                              "--no-dashboard", "--scheduler-file", str(sf)],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+    procs = [sched]
+    try:
+        t0 = time.time()
+        while not sf.is_file() and time.time() - t0 < 60:
+            time.sleep(0.2)
+        for i in range(2):
+            procs.append(subprocess.Popen(
+                ["unshare", "-m", "--propagation", "private", "sh", "-c",
+                 'mount -t tmpfs none "$1" && exec "$2" worker --scheduler-file "$3" '
+                 '--nthreads 1 --no-nanny --name "$4"', "sh", str(hidden), dask, str(sf),
+                 f"blind{i}"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env))
+        address = json.loads(sf.read_text())["address"]
+        from distributed import Client
+
+        with Client(address, timeout=60) as c:
+            c.wait_for_workers(2, timeout=120)
+            seen = c.run(os.path.exists, str(study))
+        assert study.is_file() and not any(seen.values()), seen  # they really cannot
+        remote = run_study(study, out_root=hidden / "out", scheduler=address,
+                           cache_dir=hidden / "links")
+    finally:
+        _stop(procs[::-1])
+    folder, res = local
+    assert remote.ran == 4
+    for a, b in zip(res.rows, remote.rows, strict=True):
+        assert b["status"] == "ok", b
+        assert a["out:peak_heave"] == b["out:peak_heave"]
+        assert a["out:final_pitch"] == b["out:final_pitch"]
+    for r in res.rows:
+        la = np.load(res.folder / "cases" / f"{r['input_hash'][:16]}.npz")
+        lb = np.load(remote.folder / "cases" / f"{r['input_hash'][:16]}.npz")
+        for k in la.files:
+            np.testing.assert_array_equal(la[k], lb[k])
+    assert remote.recommendation == res.recommendation
