@@ -80,6 +80,7 @@ def unpack(bundle: Bundle) -> Path:
     if (done / ".complete").is_file():
         return done
     top.mkdir(parents=True, exist_ok=True)
+    _prune(top)
     tmp = Path(tempfile.mkdtemp(prefix=f"{bundle.key[:16]}.", dir=top))
     try:
         for name, data in bundle.files.items():
@@ -98,6 +99,23 @@ def unpack(bundle: Bundle) -> Path:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
     return done
+
+
+#: a bundle unpacked longer ago than this (s) is removed when another is unpacked
+KEEP_SECONDS = 7 * 24 * 3600.0
+
+
+def _prune(top: Path) -> None:
+    """Remove the bundles of studies long finished (a machine's temporary folder would
+    otherwise collect every study's files)."""
+    import time
+
+    for old in top.glob("*/.complete"):
+        try:
+            if time.time() - old.stat().st_mtime > KEEP_SECONDS:
+                shutil.rmtree(old.parent, ignore_errors=True)
+        except OSError:
+            pass
 
 
 class BundlePlugin(WorkerPlugin):
