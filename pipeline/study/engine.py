@@ -46,6 +46,10 @@ KEPT = ("ok", "suspect", "partial")
 #: seconds a study waits while its cluster has no worker before the cases left are lost
 WORKER_TIMEOUT = 120.0
 
+#: seconds to fetch a finished case's result before looking at the cluster again (its
+#: worker may have died holding it)
+GATHER_SECONDS = 10.0
+
 
 @dataclass(frozen=True)
 class StudyResult:
@@ -423,8 +427,7 @@ def _run(spec, bundle, todo, workers, scheduler, folder, world, finished,
     cluster = None
     with _quiet_distributed(), stage(f"study {spec.name}: {len(todo)} cases on {where}"):
         if scheduler is None:
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None)
+            cluster = _local_cluster(LocalCluster, workers)
         client = Client(scheduler or cluster)
         try:
             logger.info("study %s: sending its files and reduced links (%.1f MB) to the "
@@ -458,14 +461,22 @@ def _run(spec, bundle, todo, workers, scheduler, folder, world, finished,
                     done = wait(list(pending), timeout=2.0, return_when="FIRST_COMPLETED").done
                 except TimeoutError:
                     done = set()
+                gathered = False
                 for fut in done:
-                    pending.discard(fut)
                     try:
-                        res = fut.result()
+                        res = fut.result(timeout=GATHER_SECONDS)
+                    except TimeoutError:  # its worker died before the result came: the
+                        continue          # scheduler computes it again; keep waiting
                     except Exception as exc:  # noqa: BLE001 - a dead worker (KilledWorker) or any task failure is this case's row
                         res = _lost(f"{type(exc).__name__}: {exc}")
-                    record(futures[fut], res)
-                if done or not pending:
+                    pending.discard(fut)
+                    # forget the future: a result the cluster still held would be computed
+                    # again when its worker dies (a finished case run twice)
+                    k = futures.pop(fut)
+                    fut.release()
+                    record(k, res)
+                    gathered = True
+                if gathered or not pending:
                     continue
                 if client.scheduler_info().get("workers"):
                     alone_since = None
@@ -483,6 +494,27 @@ def _run(spec, bundle, todo, workers, scheduler, folder, world, finished,
             client.close()
             if cluster is not None:
                 cluster.close()
+
+
+#: attempts at starting the local cluster (a worker killed while it starts fails the start)
+CLUSTER_STARTS = 3
+
+
+def _local_cluster(LocalCluster, workers: int):
+    """A local cluster of ``workers`` processes; a start that fails (a worker process
+    killed or out of memory as it comes up) is tried again, then named."""
+    for attempt in range(CLUSTER_STARTS):
+        try:
+            return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                dashboard_address=None)
+        except (RuntimeError, OSError, TimeoutError) as exc:
+            logger.warning("the local Dask cluster did not start (%s: %s)%s",
+                           type(exc).__name__, exc,
+                           "; trying again" if attempt + 1 < CLUSTER_STARTS else "")
+            last = exc
+    raise PipelineError(f"the local Dask cluster of {workers} processes did not start in "
+                        f"{CLUSTER_STARTS} attempts ({type(last).__name__}: {last}); "
+                        "check memory and the temporary folder") from None
 
 
 def _lost(why: str) -> dict:

@@ -189,3 +189,30 @@ def test_an_error_in_a_studys_set_is_at_the_studys_line(tmp_path, override, expe
     with pytest.raises(ConfigError) as exc:
         run_study(p, out_root=tmp_path / "out")
     assert str(exc.value) == f"{p}:{line}: {expect}"
+
+
+def test_a_cluster_that_fails_to_start_is_started_again_then_named(caplog):
+    """A worker killed while the local cluster comes up failed the study with distributed's
+    traceback ("Nanny failed to start"); the start is tried again, and after the last
+    attempt the study stops with one line."""
+    from pipeline.core.errors import PipelineError
+    from pipeline.study.engine import CLUSTER_STARTS, _local_cluster
+
+    calls = []
+
+    def flaky(fail):
+        def make(**kw):
+            calls.append(kw)
+            if len(calls) <= fail:
+                raise RuntimeError("Nanny failed to start.")
+            return "cluster"
+        return make
+
+    with caplog.at_level("WARNING", logger="pipeline.study.engine"):
+        assert _local_cluster(flaky(1), 2) == "cluster"
+    assert len(calls) == 2 and "trying again" in caplog.text
+    calls.clear()
+    with pytest.raises(PipelineError, match=rf"did not start in {CLUSTER_STARTS} attempts "
+                                            r"\(RuntimeError: Nanny failed to start.\)"):
+        _local_cluster(flaky(99), 2)
+    assert len(calls) == CLUSTER_STARTS
