@@ -47,8 +47,9 @@ KEPT = ("ok", "suspect", "partial")
 WORKER_TIMEOUT = 120.0
 
 #: seconds to fetch a finished case's result before looking at the cluster again (its
-#: worker may have died holding it)
-GATHER_SECONDS = 10.0
+#: worker may have died holding it; at 10 s, futures in that state one after another
+#: livelocked a study whose workers were killed every 1-2.5 s)
+GATHER_SECONDS = 1.0
 
 
 @dataclass(frozen=True)
