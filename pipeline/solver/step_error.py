@@ -43,17 +43,24 @@ def fixed_step_error(r: SimulationResult, coarse: SimulationResult, U: np.ndarra
     return scaled_error(r, np.abs(r.q[:k] - coarse.q[:k]), U, rtol, atol, unit, modal_index)
 
 
+def tolerance(size: np.ndarray, U: np.ndarray, rtol: float, atol: float, unit: np.ndarray,
+              modal_index=()) -> np.ndarray:
+    """(len(U),) the error accepted in each integrated coordinate: atol in its unit plus
+    rtol times ``size`` (n,), its largest magnitude over the run (module docstring)."""
+    size = np.array(size, dtype=float)
+    for idx in modal_index:  # a link's modes share its deformation's scale
+        if len(idx):
+            size[idx] = size[idx].max()
+    return atol * unit[U] + rtol * size[U]
+
+
 def scaled_error(r: SimulationResult, deviation: np.ndarray, U: np.ndarray, rtol: float,
                  atol: float, unit: np.ndarray, modal_index=()) -> dict:
     """The estimated error ``deviation`` (k, n) of the first k outputs of ``r`` against
     the user's tolerance (module docstring): {"error_ratio", "error_coordinate",
     "error_time"} as :func:`fixed_step_error`."""
-    size = np.abs(r.q).max(axis=0)
-    for idx in modal_index:  # a link's modes share its deformation's scale
-        if len(idx):
-            size[idx] = size[idx].max()
-    tol = atol * unit[U] + rtol * size[U]
-    scaled = deviation[:, U] / tol
+    scaled = deviation[:, U] / tolerance(np.abs(r.q).max(axis=0), U, rtol, atol, unit,
+                                         modal_index)
     if not np.all(np.isfinite(scaled)):
         return {"error_ratio": np.inf, "error_coordinate": "", "error_time": float(r.t[-1])}
     i, j = np.unravel_index(int(np.argmax(scaled)), scaled.shape)

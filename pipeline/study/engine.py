@@ -287,11 +287,12 @@ def _geometry_files(wf) -> list[Path]:
 
 def _artifact_folders(machines, cache: Path) -> list[str]:
     """The folders of the link cache holding the reduced links of ``machines``."""
+    from pipeline.workflow.link_build import artifact_folder
+
     out = set()
     for m in machines:
         for part in m.parts.values():
-            digest = part.reduced.meta.get("input_hash", "")
-            folder = f"{part.reduced.name}-{digest[:12]}"
+            folder = artifact_folder(part.reduced.name, part.reduced.meta.get("input_hash", ""))
             if (Path(cache) / folder).is_dir():
                 out.add(folder)
     return sorted(out)
@@ -430,10 +431,10 @@ def _run(spec, bundle, todo, workers, scheduler, folder, world, finished,
         if scheduler is None:
             cluster = _local_cluster(LocalCluster, workers)
         client = Client(scheduler or cluster)
+        plugin = BundlePlugin(bundle)
         try:
             logger.info("study %s: sending its files and reduced links (%.1f MB) to the "
                         "workers", spec.name, bundle.size / 1e6)
-            plugin = BundlePlugin(bundle)
             client.register_plugin(plugin, name=plugin.name)
             futures = {client.submit(run_bundled_case, bundle.key, bundle.workflow, spec.quick,
                                      {**spec.set, **c.overrides}, c.label,
@@ -491,7 +492,7 @@ def _run(spec, bundle, todo, workers, scheduler, folder, world, finished,
                     pending.clear()
         finally:
             with contextlib.suppress(Exception):  # a scheduler that is gone keeps nothing
-                client.unregister_worker_plugin(f"flexmech-bundle-{bundle.key[:16]}")
+                client.unregister_worker_plugin(plugin.name)
             client.close()
             if cluster is not None:
                 cluster.close()

@@ -26,7 +26,13 @@ from pipeline.kinematics import Joint, build_mechanism, evaluate_tree, rigid_lin
 from pipeline.kinematics.drivers import driver_from_dict
 from pipeline.kinematics.initial import initial_positions, initial_velocities, reach
 from pipeline.kinematics.links import link_from_frames
-from pipeline.workflow.link_build import frame_axes, input_hash, link_request, reduce_spec
+from pipeline.workflow.link_build import (
+    artifact_folder,
+    frame_axes,
+    input_hash,
+    link_request,
+    reduce_spec,
+)
 from pipeline.workflow.link_spec import LinkSpec
 from pipeline.workflow.load import Workflow
 from pipeline.workflow.model_checks import basis_warnings, held_mode_notes
@@ -197,7 +203,7 @@ def _reduce(wf: Workflow, name: str, entry, cache_dir: Path, rebuild: bool):
             update={"geometric_stiffening": True})})
     request_files = link_request(spec, base)[1]
     digest = input_hash(spec, request_files)
-    out = Path(cache_dir) / f"{spec.name}-{digest[:12]}"
+    out = Path(cache_dir) / artifact_folder(spec.name, digest)
     try:
         return reduce_spec(spec, base, out, rebuild)
     except PipelineError as exc:

@@ -135,6 +135,12 @@ def input_hash(spec: LinkSpec, files: tuple[Path, ...]) -> str:
                          "reduction": REDUCTION_REVISION, "versions": versions()}, files)
 
 
+def artifact_folder(name: str, digest: str) -> str:
+    """The folder of the link cache holding the artifact of link spec ``name`` built from
+    inputs of hash ``digest`` (content-addressed: one folder per distinct input)."""
+    return f"{name}-{digest[:12]}"
+
+
 def versions() -> dict[str, str]:
     """Versions of the pipeline and of the libraries that shape its numbers."""
     out = {"pipeline": __version__}

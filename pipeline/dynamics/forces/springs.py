@@ -130,12 +130,11 @@ class TableSpringDamper(SpringDamper):
     KIND: ClassVar[int] = 4
 
     def pack(self, mech, markers) -> tuple:
-        """(ints, par, table rows (k, 3): deflection m, tension N, int_0^x f dx J)."""
+        """(ints, par, table rows (k, 3): deflection m, tension N, int_x0^x f dx J)."""
         xs, fs = np.asarray(self.deflection), np.asarray(self.force)
-        cum = np.concatenate([[0.0], np.cumsum(0.5 * (fs[1:] + fs[:-1]) * np.diff(xs))])
         return ([markers.add(self.marker_a), markers.add(self.marker_b), 0, xs.size],
                 [0.0, self.free_length, self.damping, 0.0, self._integral(0.0), 0.0],
-                np.column_stack([xs, fs, cum]))
+                np.column_stack([xs, fs, self._cumulative()]))
 
     def __post_init__(self):
         super().__post_init__()
@@ -163,9 +162,14 @@ class TableSpringDamper(SpringDamper):
         x = length - self.free_length
         return self._integral(x) - self._integral(0.0)
 
+    def _cumulative(self) -> np.ndarray:
+        """(k,) int f dx from the first table row to each row (trapezoids), J."""
+        xs, fs = np.asarray(self.deflection), np.asarray(self.force)
+        return np.concatenate([[0.0], np.cumsum(0.5 * (fs[1:] + fs[:-1]) * np.diff(xs))])
+
     def _integral(self, x: float) -> float:
         xs, fs = np.asarray(self.deflection), np.asarray(self.force)
-        cum = np.concatenate([[0.0], np.cumsum(0.5 * (fs[1:] + fs[:-1]) * np.diff(xs))])
+        cum = self._cumulative()
         k, _, _, slope = self._segment(x)
         dx = x - xs[k]
         return float(cum[k] + fs[k] * dx + 0.5 * slope * dx * dx)
