@@ -82,6 +82,14 @@ class Driver:
         (a dynamics run asks for all three at every time step)."""
         return float(self.value(t)), float(self.rate(t)), float(self.accel(t))
 
+    def breaks(self) -> tuple[float, ...]:
+        """The times, s, where the rate or the acceleration may jump (knots of a table, the
+        start of a ramp); ``rate`` and ``accel`` give the values just after them. A
+        transient run ends a step on each and starts the method afresh there (an
+        integrator of second order stays so only between such places), and where the
+        rate jumps the machine takes the impulse that jump needs. Default: none."""
+        return ()
+
     def __add__(self, other) -> SumDriver:
         if isinstance(other, (int, float)) and not isinstance(other, bool):
             other = Constant(float(other))
@@ -150,3 +158,6 @@ class SumDriver(Driver):
 
     def accel(self, t):
         return self._total(t, "accel")
+
+    def breaks(self) -> tuple[float, ...]:
+        return tuple(sorted({t for d in self.terms for t in d.breaks()}))

@@ -91,6 +91,12 @@ class Table(Driver):
     def accel(self, t):
         return self._eval(t, 2)
 
+    def breaks(self) -> tuple[float, ...]:
+        # linear: the rate jumps at every knot; pchip: the acceleration does (and the rate
+        # at the ends); the clamped spline is C2 inside, its acceleration jumps at the ends
+        t = self.times if self.interpolation != "spline" else self.times[[0, -1]]
+        return tuple(float(x) for x in t)
+
     @classmethod
     def from_dict(cls, d: dict, where: str, base_dir: Path | None = None) -> Table:
         """Build from ``{"times": [...], "values": [...]}`` or ``{"file": "x.csv"}``.

@@ -73,6 +73,9 @@ class Ramp(Driver):
     def accel(self, t):
         return out(t, 0.0)
 
+    def breaks(self) -> tuple[float, ...]:
+        return (float(self.t0),)
+
     @classmethod
     def from_dict(cls, d: dict, where: str, base_dir: Path | None = None) -> Ramp:
         check_keys(d, {"t0", "rate", "v0"}, where)
@@ -141,6 +144,9 @@ class SmoothStep(Driver):
     def accel(self, t):
         tau, inside, T = self._tau(t)
         return out(t, np.where(inside, (self.v1 - self.v0) * self._s(tau, 2) / T**2, 0.0))
+
+    def breaks(self) -> tuple[float, ...]:
+        return () if self.shape == "quintic" else (float(self.t0), float(self.t1))
 
     @classmethod
     def from_dict(cls, d: dict, where: str, base_dir: Path | None = None) -> SmoothStep:

@@ -29,7 +29,7 @@ from pipeline.dynamics.partition import driver_state
 from pipeline.kinematics.closure import closure
 from pipeline.kinematics.partition import RANK_RTOL
 
-__all__ = ["REGULARISATION", "ConstrainedState", "ConstrainedSystem", "least_norm",
+__all__ = ["REGULARISATION", "ConstrainedState", "ConstrainedSystem", "drivers_at", "least_norm",
            "mass_scale", "saddle_solve", "saddle_solve_regularised"]
 
 #: regularisation of the saddle-point solves of integrators (see
@@ -75,11 +75,15 @@ class ConstrainedSystem:
         self.m = 6 * len(mech.topology.loops)
         self.w = np.asarray(mech.row_weights, dtype=float)
         self.n = mech.n
+        #: a break (s) at which :meth:`drive` gives the rates and accelerations just before
+        #: it: set by a run while it steps up to that break
+        self.left_of: float | None = None
 
     # ------------------------------------------------------------------ drivers
     def drive(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(values, rates, accelerations), each (p,), of the drivers at t (s)."""
-        return driver_state(self, t)
+        """(values, rates, accelerations), each (p,), of the drivers at t (s); at the break
+        ``left_of`` (when set) the rates and accelerations just before it."""
+        return drivers_at(self, t, self.left_of)
 
     def drive_table(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(values, rates, accelerations), each (k, p), of the drivers at the times (k,) s
@@ -90,9 +94,12 @@ class ConstrainedSystem:
             for k, t in enumerate(times):
                 out[:, k, :] = np.reshape(self.drive(float(t)), (3, self.P.size))
             return out[0], out[1], out[2]
+        at = times
+        if self.left_of is not None:
+            at = np.where(np.abs(times - self.left_of) <= _SAME * np.maximum(1.0, np.abs(times)),
+                          _before(times), times)
         for j, d in enumerate(self.drivers):
-            out[0, :, j], out[1, :, j], out[2, :, j] = d.value(times), d.rate(times), \
-                d.accel(times)
+            out[0, :, j], out[1, :, j], out[2, :, j] = d.value(times), d.rate(at), d.accel(at)
         return out[0], out[1], out[2]
 
     def with_drivers(self, t: float, q, qd=None, qdd=None):
@@ -106,6 +113,46 @@ class ConstrainedSystem:
             x[self.P] = d[k]
             out.append(x)
         return tuple(out)
+
+    def breaks(self, t0: float, t1: float) -> np.ndarray:
+        """The drivers' break times (:meth:`pipeline.kinematics.driver_base.Driver.breaks`)
+        in (t0, t1], sorted, s; one within 1e-10 (relative) of t0 is left out (it is the
+        start)."""
+        tol = _SAME * max(1.0, abs(t0))
+        times = {t for d in self.drivers for t in d.breaks() if t0 + tol < t <= t1 + tol}
+        return np.array(sorted(times), dtype=float)
+
+    def across_break(self, t: float, q: np.ndarray, v: np.ndarray, before=None
+                     ) -> tuple[np.ndarray, float]:
+        """(v (n,) just after a break of the drivers at t, the drivers' work there, J).
+
+        The driven rates jump from their values just before t to those at t. An ideal
+        prescribed motion does that by an impulse: the other velocities take the jump
+        that keeps the momentum along every motion the drivers and the loops leave free,
+        M_UU dv_U + M_UP dv_P + C_U^T Lambda = 0 and C dv = 0 (Lambda: the loops' impulses,
+        minimum-norm where rows are redundant). Positions do not move during an impulse,
+        so the drivers' work is the change of kinetic energy. Where no rate jumps, v is
+        returned with its driven entries set, and no work. ``before``: the driven rates
+        before t (p,) if not the drivers' own just before t."""
+        v = np.array(v, dtype=float)
+        after = driver_state(self, t)[1]
+        before = driver_state(self, _before(t))[1] if before is None else np.asarray(before)
+        dvP = after - before
+        v[self.P] = after
+        if not dvP.size or not np.any(np.abs(dvP) > 1e-12 * np.maximum(1.0, np.abs(after))):
+            return v, 0.0
+        v[self.P] = before
+        st = self.evaluate(t, q, v)
+        M, U, P = st.terms.M, self.U, self.P
+        f = -M[np.ix_(U, P)] @ dvP
+        if self.m:
+            dvU, _ = saddle_solve(M[np.ix_(U, U)], st.C[:, U], f, -st.C[:, P] @ dvP)
+        else:
+            dvU = np.linalg.solve(M[np.ix_(U, U)], f)
+        kinetic = 0.5 * v @ M @ v
+        v[U] += dvU
+        v[P] = after
+        return v, float(0.5 * v @ M @ v - kinetic)
 
     # ------------------------------------------------------------------ terms
     def evaluate(self, t: float, q: np.ndarray, qd: np.ndarray) -> ConstrainedState:
@@ -180,6 +227,26 @@ class ConstrainedSystem:
         qd = np.array(qd, dtype=float)
         qd[self.U] -= least_norm(st.C[:, self.U], st.C @ qd)
         return qd
+
+
+_SAME = 1e-10  # relative: two times this close are one instant
+
+
+def drivers_at(part, t: float, left_of: float | None = None):
+    """(values, rates, accelerations), each (p,), of ``part.drivers`` at t (s); at the
+    break ``left_of`` the rates and accelerations just before it (a run stepping up to a
+    break sees the motion that arrives there, ConstrainedSystem.across_break the jump)."""
+    d = driver_state(part, t)
+    if left_of is not None and abs(t - left_of) <= _SAME * max(1.0, abs(t)):
+        before = driver_state(part, _before(t))
+        return d[0], before[1], before[2]
+    return d
+
+
+def _before(t):
+    """A time just before t, closer than any table's knots: rates there are the limits
+    from the left."""
+    return t - 1e-9 * np.maximum(1.0, np.abs(t))
 
 
 def least_norm(A: np.ndarray, b: np.ndarray) -> np.ndarray:

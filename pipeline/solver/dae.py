@@ -120,6 +120,7 @@ class _Run:
         self.steps = self.rejected = 0
         self.stall = StallWatch(self.span)
         self.hmin, self.hmax = np.inf, 0.0
+        self.impulses = 0  # drivers' rate jumps passed
 
     def _budget(self, t) -> str | None:
         if self.steps >= self.max_steps:
@@ -143,11 +144,40 @@ class _Run:
         """The step statistics of the run so far (SimulationResult.step_stats)."""
         return {"rejected": self.rejected, "h_min": self.hmin if self.steps else 0.0,
                 "h_max": self.hmax, "evaluations": stepper.evaluations,
-                "jacobians": stepper.jacobians}
+                "jacobians": stepper.jacobians, "impulses": self.impulses}
 
     def march(self, stepper, s, work, grid, advance):
         """Step from s to t1, recording outputs; work (2,): the driver work and dissipated
-        energy at s, J. Returns (state, work, failure message or None)."""
+        energy at s, J. Returns (state, work, failure message or None).
+
+        A step ends on every break of the drivers (a table's knot, a ramp's start), and the
+        method starts afresh there from the velocities just after it (with the impulse a
+        jump of a driven rate needs, ConstrainedSystem.across_break): stepping across, its
+        acceleration-like variable would lag the jump and the run lose its order."""
+        end = self.t1
+        try:
+            for tb in self.cs.breaks(s.t, end):
+                self.t1 = self.cs.left_of = float(tb)
+                s, work, msg = self._segment(stepper, s, work, grid, advance)
+                self.cs.left_of = None
+                if msg:
+                    return s, work, msg
+                v, dw = self.cs.across_break(float(tb), s.q, s.v)
+                if dw:
+                    if not self.impulses:
+                        logger.info("a driven rate jumps at t = %.6g s: the machine takes "
+                                    "the impulse an ideal prescribed motion needs (%.4g J); "
+                                    "a pchip or spline table moves it smoothly", tb, dw)
+                    self.impulses += 1
+                s = stepper.start(float(tb), s.q, v)
+                work = work + np.array([dw, 0.0])
+            self.t1 = end
+            return self._segment(stepper, s, work, grid, advance)
+        finally:
+            self.t1, self.cs.left_of = end, None
+
+    def _segment(self, stepper, s, work, grid, advance):
+        """:meth:`march` to t1 without a break in between."""
         if grid.due(s.t):
             grid.record(s.t, s.q, s.v, work)
         while s.t < self.t1 - same_time(self.t1):

@@ -26,8 +26,9 @@ import numpy as np
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.core.progress import progress_counter
 from pipeline.dynamics.energy import energies
-from pipeline.dynamics.partition import driver_state, partition_system, reduced_state, repartition
+from pipeline.dynamics.partition import partition_system, reduced_state, repartition
 from pipeline.kinematics.failures import ClosureError, SingularConfigurationError
+from pipeline.solver.constrained import ConstrainedSystem, drivers_at
 from pipeline.solver.monitors import StallWatch
 from pipeline.solver.result import ENERGY_KEYS, SimulationResult
 
@@ -50,6 +51,7 @@ class _Rhs:
         self.last = None  # (t, y[:2 nI], ReducedState) of the last evaluation
         self.accepted = None  # the same of the last accepted state: predictions start there
         self._drive = None  # (t, driver_state at t)
+        self.left_of = None  # the drivers' break the run steps up to (drivers_at)
 
     def accept(self, t, y):
         """Make (t, y) the accepted state the next predictions start from."""
@@ -73,7 +75,7 @@ class _Rhs:
         nI = self.nI
         q_I = y[:nI]
         if self._drive is None or self._drive[0] != t:  # Newton iterations share a time
-            self._drive = (t, driver_state(self.part, t))
+            self._drive = (t, drivers_at(self.part, t, self.left_of))
         st = reduced_state(self.system, self.part, q_I, y[nI:2 * nI], t, self.predict(t, q_I),
                            self._drive[1])
         self.last = (t, y[:2 * nI].copy(), st)
@@ -181,17 +183,32 @@ class _Stepper:
     #: accepted steps under a reduced step cap before the user's max_step is restored
     CAPPED_STEPS = 20
 
-    def __init__(self, rhs, make, t0, t1, max_step, max_steps, max_wall, jump, tic):
-        self.rhs, self.make = rhs, make
+    def __init__(self, rhs, make, t0, t1, max_step, max_steps, max_wall, jump, tic, cs):
+        self.rhs, self.make, self.cs = rhs, make, cs
         self.span, self.max_step = t1 - t0, max_step
         self.max_steps, self.max_wall, self.jump, self.tic = max_steps, max_wall, jump, tic
         self.unit = rhs.system.mechanism.coordinate_units
         self.rejected, self.capped = 0, 0
         self.stall = StallWatch(self.span)
 
+    def across(self, solver):
+        """A solver started afresh after the drivers' break it reached, with the impulse a
+        jump of a driven rate needs (ConstrainedSystem.across_break)."""
+        rhs, t = self.rhs, solver.t_bound
+        st = rhs.state(t, solver.y)
+        v, dw = self.cs.across_break(t, st.q, st.qd)
+        I = rhs.part.independent
+        y = np.concatenate([solver.y[:rhs.nI], v[I], solver.y[-2:] + np.array([dw, 0.0])])
+        solver = self.make(t, y)
+        rhs.last = None
+        rhs.accept(t, y)
+        return solver
+
     def step(self, solver):
         """(solver after one accepted step, or None with a message)."""
         rhs = self.rhs
+        if solver.status == "finished":  # at a break of the drivers: start afresh after it
+            solver = self.across(solver)
         while True:
             if rhs.steps >= self.max_steps:
                 return solver, (f"step budget of {self.max_steps} steps exhausted at "
@@ -245,7 +262,7 @@ def _march(solver, rhs, te, y0, progress, out, stepper):
     dense, dense_of = None, None  # one interpolant per step, however many outputs it holds
     with progress_counter(te.size, "simulating", progress) as advance:
         for k, tk in enumerate(te):
-            while solver.t < tk - _same_time(tk) and solver.status == "running":
+            while solver.t < tk - _same_time(tk) and solver.status != "failed":
                 solver, msg = stepper.step(solver)
                 if msg:
                     return msg, t_out
@@ -280,15 +297,24 @@ def run(system, q0, qd0, t0, t1, te, solver_cls, name, rtol, atol, progress,
     y0 = np.concatenate([q0[I], qd0[I], [0.0, 0.0]])
     out, msg, t_out = [], None, 0.0
     stepper = None
+    cs = ConstrainedSystem(system)
+    breaks = list(cs.breaks(t0, t1))
     try:
         def make(t, y, first_step=None, max_step=max_step):
             extra = {}
             if getattr(solver_cls, "SECOND_ORDER", False):  # y = [q_I, v_I, work, dissipated]
                 extra = {"n_second": rhs.nI, **(options or {})}
-            return solver_cls(rhs, t, y, t1, rtol=rtol, atol=atol, max_step=max_step,
+            # up to the drivers' next break, where the run starts afresh (dae._Run.march)
+            while breaks and breaks[0] <= t + _same_time(t):
+                breaks.pop(0)
+            bound = breaks[0] if breaks else t1
+            rhs.left_of, rhs._drive = (bound if breaks else None), None
+            if first_step is not None:
+                first_step = min(first_step, bound - t)
+            return solver_cls(rhs, t, y, bound, rtol=rtol, atol=atol, max_step=max_step,
                               first_step=first_step, **extra)
 
-        stepper = _Stepper(rhs, make, t0, t1, max_step, max_steps, max_wall, jump, tic)
+        stepper = _Stepper(rhs, make, t0, t1, max_step, max_steps, max_wall, jump, tic, cs)
         msg, t_out = _march(make(t0, y0), rhs, te, y0, progress, out, stepper)
     # ValueError: scipy's implicit methods refuse a non-finite Jacobian (a diverging trial
     # state); the run ends there with its history, like any other integrator failure

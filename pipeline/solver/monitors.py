@@ -338,6 +338,12 @@ def _axial_load(system, r: SimulationResult, lim: Limits, samples: int = 50) -> 
 def _step_error(r: SimulationResult) -> list[str]:
     """A fixed-step run whose estimated error (:mod:`pipeline.solver.step_error`) exceeds
     the tolerance the user gave."""
+    why = (r.step_stats or {}).get("error_unavailable")
+    if why:
+        h = r.step_stats.get("h_max", 0.0)
+        return [(f"the error of the fixed step {h:.3g} s could not be estimated ({why}), so "
+                 f"the run is not known to be within its tolerance; a smaller step, or no "
+                 f"step (error control), makes it so")]
     ratio = (r.step_stats or {}).get("error_ratio")
     if ratio is None or ratio <= 1.0:
         return []

@@ -150,9 +150,25 @@ def run_projected(system, q0, qd0, t0, t1, te, solver_cls, name, *, rtol, atol,
     msg = None
     stall = StallWatch(t1 - t0)
 
+    breaks = list(cs.breaks(t0, t1))
+
     def make(t, y, first_step=None, max_step=max_step):
-        return solver_cls(f, t, y, t1, rtol=rtol, atol=atol, max_step=max_step,
+        # up to the drivers' next break, where the run starts afresh (_Run.march in dae)
+        while breaks and breaks[0] <= t + same_time(t):
+            breaks.pop(0)
+        bound = breaks[0] if breaks else t1
+        cs.left_of = bound if breaks else None
+        if first_step is not None:
+            first_step = min(first_step, bound - t)
+        return solver_cls(f, t, y, bound, rtol=rtol, atol=atol, max_step=max_step,
                           first_step=first_step)
+
+    def across(t, y):
+        """A solver started afresh after the break reached at (t, y), with its impulse."""
+        q, v = f.full(t, y)
+        cs.left_of = None
+        v, dw = cs.across_break(t, q, v)
+        return make(t, np.concatenate([q[cs.U], v[cs.U], y[2 * nU:] + np.array([dw, 0.0])]))
 
     nU = cs.U.size
     stuck, bridges, since_bridge = 0, 0, BRIDGE_AFTER
@@ -164,7 +180,8 @@ def run_projected(system, q0, qd0, t0, t1, te, solver_cls, name, *, rtol, atol,
         scipy solver resumed after them, or None at t1)."""
         nonlocal steps, bridges, since_bridge
         h_b = max(recent, default=h) * rtol ** (1.0 / 3.0)
-        bridged = _bridge(cs, f, grid, t, y, h_b, t1, rtol, atol, unit, jump)
+        bound = solver.t_bound
+        bridged = _bridge(cs, f, grid, t, y, h_b, bound, rtol, atol, unit, jump)
         if isinstance(bridged, str):
             return bridged, None
         t_b, y_b, n_b = bridged
@@ -173,6 +190,8 @@ def run_projected(system, q0, qd0, t0, t1, te, solver_cls, name, *, rtol, atol,
         recent.clear()
         if t_b >= t1 - same_time(t1):
             return "", None
+        if t_b >= bound - same_time(bound):
+            return "", across(t_b, y_b)
         return "", make(t_b, y_b, first_step=min(h_b, t1 - t_b))
 
     with progress_counter(te.size, "simulating", progress) as advance:
@@ -180,7 +199,11 @@ def run_projected(system, q0, qd0, t0, t1, te, solver_cls, name, *, rtol, atol,
             grid.record(t0, q, v, y[2 * nU:])
         try:
             solver = make(t0, y)
-            while grid.k < te.size and solver.status == "running":
+            while grid.k < te.size and solver.status != "failed":
+                if solver.status == "finished":
+                    if solver.t >= t1 - same_time(t1):
+                        break
+                    solver = across(solver.t_bound, solver.y)
                 if steps >= max_steps:
                     msg = f"step budget of {max_steps} steps exhausted at t = {solver.t:.6g} s"
                     break
@@ -247,6 +270,8 @@ def run_projected(system, q0, qd0, t0, t1, te, solver_cls, name, *, rtol, atol,
 
             msg = (f"integration failed at t = {solver.t:.6g} s: {exc}"
                    + gimbal_lock_note(system.mechanism, f.full(solver.t, solver.y)[0]))
+        finally:
+            cs.left_of = None
     total = time.perf_counter() - tic
     if msg:
         logger.warning("simulation: %s", msg)

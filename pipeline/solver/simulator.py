@@ -36,11 +36,15 @@ calls of 10 steps, 1.7x the error; over 500 calls of one step, 0.8x
 (tests/solver/test_simulator.py). For inputs that do not depend on the state (a
 schedule) ``result(replay=True)`` replays the recorded inputs at twice the step, as
 :func:`~pipeline.solver.simulate` does. The estimate costs about half the run again (a
-call of one step: twice); :attr:`error_ratio` gives it after every call.
+call of one step: twice); :attr:`error_ratio` gives it after every call. Where a call's
+check run fails (its other step cannot follow the motion) the call still stands; the
+estimate is then unavailable for the rest of the run, and :meth:`result` says so in its
+warnings (the run is not known to be within its tolerance).
 """
 
 from __future__ import annotations
 
+import logging
 import math
 import sys
 import time
@@ -59,6 +63,8 @@ from pipeline.solver.outputs import OutputGrid, same_time
 from pipeline.solver.result import SimulationResult
 
 __all__ = ["Simulator", "SimulatorState"]
+
+logger = logging.getLogger(__name__)
 
 
 class _HeldValue:
@@ -170,6 +176,7 @@ class Simulator:
         #: accumulated error estimate (n,) at every output row (error_estimate), and the
         #: steppers at twice and at half the step that make it
         self._deviation = [np.zeros(cs.n)] if error_estimate else None
+        self._unavailable = ""  # why the estimate was lost (a check run failed), if it was
         self._checks: dict[float, tuple] = {}
         q, v = cs.with_drivers(t0, q0, qd0)
         s, self._work, msg = march_guarded(self._run, self._stepper, (t0, q, v), np.zeros(2),
@@ -269,22 +276,31 @@ class Simulator:
                 slope = h.slope
                 h.ta, h.xa, h.tb = t0, h.xb, t1
                 h.xb = values.get(name, h.xb)
-                jumps |= h.slope != slope
+                # a slope the round-off of the values changes is no jump (a restart is
+                # an O(h^2) change of its own)
+                jumps |= not math.isclose(h.slope, slope, rel_tol=1e-9,
+                                          abs_tol=1e-12 * (abs(h.xb) + 1.0) / float(dt))
         self._run.t1 = t1
         self._grid.te = np.append(self._grid.te, t1)
         self._log.append((t1, values))
-        start = self._s
+        start, work = self._s, self._work
         if jumps:
             # a force or a driven rate that jumps: the method's acceleration-like variable
             # would lag the new accelerations for several steps, an error of the order of
             # the step per jump (first order overall: a PD loop sampled every two steps
-            # was 10x the error the calls' check saw); start afresh from the state instead
-            q, v = self._cs.with_drivers(t0, start.q, start.v)
-            start = self._stepper.start(t0, q, v)
-        s, work, msg = march_guarded(self._run, self._stepper, start, self._work,
+            # was 10x the error the calls' check saw); start afresh from the state instead,
+            # with the impulse a driven rate's jump needs
+            v, dw = self._cs.across_break(t0, start.q, start.v, before=start.v[self._cs.P])
+            start = self._stepper.start(t0, start.q, v)
+            work = work + np.array([dw, 0.0])
+        s, work, msg = march_guarded(self._run, self._stepper, start, work,
                                      self._grid, _quiet)
         if not msg and self._deviation is not None:
-            msg = self._check_call(start, before.work, t1)
+            why = self._check_call(start, before.work, t1)
+            if why:  # the user's step went through: only the estimate is lost
+                logger.warning("Simulator.step from t = %.6g s: %s; the error is not "
+                               "estimated from here on", t0, why)
+                self._deviation, self._unavailable = None, f"at t = {t0:.6g} s {why}"
         self._seconds += time.perf_counter() - tic
         if msg:
             self.set_state(before)
@@ -324,7 +340,8 @@ class Simulator:
     @property
     def error_ratio(self) -> float | None:
         """The accumulated error estimate over the tolerance (1: at it), largest over the
-        coordinates and the calls so far; None without ``error_estimate``. It costs as
+        coordinates and the calls so far; None without ``error_estimate`` or once a check
+        run failed (the estimate is lost, module docstring). It costs as
         much after the millionth call as after the first: the summed errors only grow,
         so the largest is the last row's (``result()`` reports the same figure)."""
         from pipeline.solver.step_error import tolerance
@@ -371,6 +388,9 @@ class Simulator:
             r = replace(r, step_stats={**r.step_stats, **self._estimate(r, deviation),
                                        "error_seconds": time.perf_counter() - tic,
                                        "error_method": how})
+        elif self._unavailable:
+            r = replace(r, step_stats={**r.step_stats,
+                                       "error_unavailable": self._unavailable})
         elif self._deviation is not None and r.t.size > 1:
             how = "each call again at another step, the errors summed"
             r = replace(r, step_stats={**r.step_stats, **self._estimate(r),

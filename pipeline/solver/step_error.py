@@ -33,13 +33,16 @@ def fixed_step_error(r: SimulationResult, coarse: SimulationResult, U: np.ndarra
 
     Returns
     -------
-    {} if the coarse run did not finish, else {"error_ratio": estimated error over the
-    tolerance, largest over outputs and coordinates (1: at the tolerance),
-    "error_coordinate": its name, "error_time": when, s}.
+    {"error_ratio": estimated error over the tolerance, largest over outputs and
+    coordinates (1: at the tolerance), "error_coordinate": its name, "error_time": when,
+    s}, or {"error_unavailable": why} when the run at twice the step did not finish (the
+    run is then not known to be within its tolerance, and the checks say so).
     """
     k = min(r.t.size, coarse.t.size)
-    if not coarse.success or k == 0 or not np.allclose(r.t[:k], coarse.t[:k]):
-        return {}
+    if not coarse.success:
+        return {"error_unavailable": f"the run at twice the step failed: {coarse.message}"}
+    if k == 0 or not np.allclose(r.t[:k], coarse.t[:k]):
+        return {"error_unavailable": "the run at twice the step has other output times"}
     return scaled_error(r, np.abs(r.q[:k] - coarse.q[:k]), U, rtol, atol, unit, modal_index)
 
 
