@@ -18,7 +18,8 @@ Dynamics
     :class:`System`, :class:`BodyMass`, :func:`body_from_reduced`; force elements
     :class:`SpringDamper`, :class:`JointSpringDamper`, :class:`JointForce`,
     :class:`PointForce`,
-    :class:`Torque`, :class:`ForceCylinder` (geometric stiffening is in the links:
+    :class:`Torque`, :class:`ForceCylinder`, :class:`HydraulicCylinder` (chamber pressures
+    as states, a 4/3 valve) (geometric stiffening is in the links:
     ``body_from_reduced(..., second_order=True)``, ``link_from_reduced(...,
     second_order=True)``); analyses :func:`static_equilibrium`,
     :func:`kinetostatics` (with joint reactions), :func:`simulate` (checked transient:
@@ -56,6 +57,7 @@ from pipeline.dynamics import (
     static_equilibrium,
     vibration_modes,
 )
+from pipeline.dynamics.forces.hydraulics import HydraulicCylinder
 from pipeline.dynamics.forces.loads import ForceCylinder, JointForce, PointForce, Torque
 from pipeline.dynamics.forces.springs import JointSpringDamper, SpringDamper
 from pipeline.fem.stress import principal_stresses, von_mises
@@ -102,9 +104,9 @@ def reduce_link(spec: str | Path, cache_dir: str | Path = "output/links",
 
 
 __all__ = [
-    "JOINTS", "BodyMass", "Constant", "Curve", "ForceCylinder", "Harmonic", "Joint",
-    "JointForce", "JointSpringDamper", "Limits", "LinkShape", "Panel", "Picture",
-    "PointForce", "Ramp", "ReducedLink", "SimulationResult", "Simulator",
+    "JOINTS", "BodyMass", "Constant", "Curve", "ForceCylinder", "Harmonic",
+    "HydraulicCylinder", "Joint", "JointForce", "JointSpringDamper", "Limits", "LinkShape",
+    "Panel", "Picture", "PointForce", "Ramp", "ReducedLink", "SimulationResult", "Simulator",
     "SimulatorState", "SmoothStep", "SpringDamper",
     "Style", "System", "Table", "Torque", "animate_machine", "body_from_reduced",
     "build_machine", "build_mechanism", "dof_report", "effective_mass_fractions", "energies",

@@ -35,7 +35,7 @@ try:  # the compiled sums (numba); mass_matrix, velocity_terms, gravity are the 
 except ImportError:  # pragma: no cover - numba is a dependency
     _inertia_terms = None
 
-__all__ = ["EquationTerms", "elastic_forces", "equation_terms", "equations"]
+__all__ = ["EquationTerms", "elastic_forces", "equation_terms", "equations", "state_rates"]
 
 
 @dataclass(frozen=True)
@@ -66,16 +66,21 @@ def elastic_forces(system, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, n
     return -(K @ q), -(D @ qd)
 
 
-def _force_elements(system, tree, q, qd, t):
-    """Q of every force element and its non-conservative part (not -dV/dq)."""
+def _force_elements(system, tree, q, qd, t, z=None):
+    """Q of every force element and its non-conservative part (not -dV/dq); z: the
+    elements' states (System.state_slices), if the analysis carries them."""
     n = system.mechanism.n
     Qf, Qnc = np.zeros(n), np.zeros(n)
+    own = {id(f): sl for f, sl in system.state_slices}
     for f in system.forces:
-        Q = np.asarray(f.generalized_force(system, tree, q, qd, t), dtype=float)
+        args = (system, tree, q, qd, t)
+        if id(f) in own:
+            args += (None if z is None else z[own[id(f)]],)
+        Q = np.asarray(f.generalized_force(*args), dtype=float)
         Qf += Q
         if hasattr(f, "nonconservative_force"):  # ForceElement contract (forces/base.py)
             if not f.conservative:
-                Qnc += np.asarray(f.nonconservative_force(system, tree, q, qd, t), dtype=float)
+                Qnc += np.asarray(f.nonconservative_force(*args), dtype=float)
         elif not getattr(f, "conservative", False):  # duck-typed element: all of Q
             Qnc += Q
     return Qf, Qnc
@@ -83,7 +88,8 @@ def _force_elements(system, tree, q, qd, t):
 
 def equation_terms(system, q: np.ndarray, qd: np.ndarray, t: float,
                    tree: TreeState | None = None, compiled: bool = True,
-                   inertia: tuple | None = None) -> EquationTerms:
+                   inertia: tuple | None = None, z: np.ndarray | None = None
+                   ) -> EquationTerms:
     """All terms of the equations of motion at (q, qd, t).
 
     Parameters
@@ -94,6 +100,8 @@ def equation_terms(system, q: np.ndarray, qd: np.ndarray, t: float,
     compiled : M, h and gravity by :mod:`pipeline.dynamics.compiled` (same values to
         rounding); False uses the numpy reference implementation.
     inertia : (M, h, Q_gravity) at this state if the caller has them.
+    z : (nz,) the force elements' own states (System.state_slices), for a system with
+        such elements; without them those elements raise ConfigError.
     """
     q = np.asarray(q, dtype=float)
     qd = np.asarray(qd, dtype=float)
@@ -109,8 +117,20 @@ def equation_terms(system, q: np.ndarray, qd: np.ndarray, t: float,
         h = velocity_terms(system, tree, q, qd, links)
         Qg = gravity_force(system, tree, q, links)
     Qe, Qd = elastic_forces(system, q, qd)
-    Qf, Qnc = _force_elements(system, tree, q, qd, t)
+    Qf, Qnc = _force_elements(system, tree, q, qd, t, z)
     return EquationTerms(M, h, Qg, Qe, Qd, Qf, Qd + Qnc, tree)
+
+
+def state_rates(system, q: np.ndarray, qd: np.ndarray, t: float, z: np.ndarray,
+                tree: TreeState | None = None) -> np.ndarray:
+    """(nz,) the rates z' of the force elements' own states at (q, qd, t, z)."""
+    q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
+    if tree is None:
+        tree = evaluate_tree(system.mechanism, q, qd, derivatives=True)
+    out = np.zeros(len(z))
+    for f, sl in system.state_slices:
+        out[sl] = f.state_rates(system, tree, q, qd, t, z[sl])
+    return out
 
 
 def equations(system, q: np.ndarray, qd: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:

@@ -156,6 +156,33 @@ class System:
         return li, C3, flexible
 
     @cached_property
+    def state_slices(self) -> tuple[tuple[Any, slice], ...]:
+        """(element, its slice of the states z) of every force element with states of its
+        own (pipeline.dynamics.forces.base, contract rule 7), in the order of ``forces``."""
+        out, k = [], 0
+        for f in self.forces:
+            n = len(getattr(f, "STATES", ()))
+            if n:
+                out.append((f, slice(k, k + n)))
+                k += n
+        return tuple(out)
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        """Names ``<element>.<state>`` of the elements' states z, in order."""
+        return tuple(f"{f.name}.{x}" for f, _ in self.state_slices for x in f.STATES)
+
+    def initial_states(self) -> np.ndarray:
+        """(nz,) every element's states at the start of a run."""
+        parts = [np.asarray(f.initial_states(), dtype=float) for f, _ in self.state_slices]
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    def state_scales(self) -> np.ndarray:
+        """(nz,) the size of a meaningful change of each state."""
+        parts = [np.asarray(f.state_scales(), dtype=float) for f, _ in self.state_slices]
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    @cached_property
     def gravity4(self) -> np.ndarray:
         """(4,) gravity as a homogeneous direction [g, 0], m/s^2."""
         return np.append(self.gravity, 0.0)

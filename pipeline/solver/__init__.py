@@ -125,6 +125,12 @@ def simulate(system, q0, qd0, t_span, t_eval=None, method: str = "DOP853", rtol:
         formulation = "dae" if loops or second_order else "partitioned"
     if step is not None and not (np.isfinite(step) and step > 0):
         raise ConfigError(f"simulate: step: expected a fixed step > 0 s, got {step!r}")
+    if system.state_slices and not (second_order and formulation == "dae"):
+        raise ConfigError(
+            f"simulate: force element(s) {[f.name for f, _ in system.state_slices]} have "
+            f"states of their own (hydraulic pressures, ...), which only method="
+            f"'generalized_alpha' in the DAE formulation integrates; got method={name!r}, "
+            f"formulation={formulation!r}")
     if second_order:
         coefficients(rho_inf)  # validates rho_inf before any work
         if formulation == "partitioned" and step is None:

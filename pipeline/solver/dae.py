@@ -27,6 +27,7 @@ import numpy as np
 from pipeline.core.errors import PipelineError
 from pipeline.core.progress import progress_counter
 from pipeline.solver.constrained import ConstrainedSystem
+from pipeline.solver.generalized_alpha import first_order_coefficients
 from pipeline.solver.index3_compiled import stepper as make_stepper
 from pipeline.solver.monitors import StallWatch
 from pipeline.solver.outputs import OutputGrid, same_time
@@ -48,6 +49,7 @@ def run_dae(system, q0, qd0, t0, t1, te, *, rtol, atol, step=None, rho_inf=0.8,
     unit = system.mechanism.coordinate_units
     run = _Run(cs, unit, t0, t1, rtol, atol, step, max_step, max_steps, max_wall, tic)
     stepper = dae_stepper(cs, rtol, atol, step, rho_inf, jump)
+    run.state_gamma = first_order_coefficients(rho_inf)[1]
     q, v = cs.with_drivers(t0, q0, qd0)
     grid = OutputGrid(cs, te, getattr(stepper, "output", None))
     with progress_counter(te.size, "simulating", progress) as advance:
@@ -65,7 +67,7 @@ def run_dae(system, q0, qd0, t0, t1, te, *, rtol, atol, step=None, rho_inf=0.8,
                          rho_inf=rho_inf, max_step=max_step, progress=False, jump=jump,
                          max_steps=max_steps, max_wall=max_wall, estimate=False)
         est = fixed_step_error(r, coarse, cs.U, rtol, atol, unit,
-                               system.mechanism.modal_index)
+                               system.mechanism.modal_index, system.state_scales())
         est["error_seconds"] = time.perf_counter() - tic
         r = replace(r, step_stats={**r.step_stats, **est})
     return r
@@ -97,7 +99,7 @@ def march_guarded(run, stepper, s, work, grid, advance):
         if isinstance(s, tuple):
             s = stepper.start(*s)
         return run.march(stepper, s, work, grid, advance)
-    except (PipelineError, np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
+    except (PipelineError, np.linalg.LinAlgError, ArithmeticError, ValueError) as exc:
         from pipeline.kinematics.joints import gimbal_lock_note
 
         system = run.cs.system
@@ -121,6 +123,9 @@ class _Run:
         self.stall = StallWatch(self.span)
         self.hmin, self.hmax = np.inf, 0.0
         self.impulses = 0  # drivers' rate jumps passed
+        # the force elements' own states: their scales and their method's gamma
+        self.zscale = cs.system.state_scales()
+        self.state_gamma = 0.0
 
     def _budget(self, t) -> str | None:
         if self.steps >= self.max_steps:
@@ -133,11 +138,17 @@ class _Run:
         return h < 1e-10 * max(self.span, abs(t)) or (self.step and h < 1e-6 * self.step)
 
     def _error(self, s0, s1, h, beta) -> float:
-        """RMS of the local position error estimate over its tolerance."""
+        """RMS of the local error estimate over its tolerance: positions', and the force
+        elements' own states' ((gamma_z - 1/2) h (z'_1 - z'_0), the same order)."""
         U = self.cs.U
         e = (beta - 1.0 / 6.0) * h * h * (s1.qdd - s0.qdd)[U]
         scale = self.atol * self.unit[U] + self.rtol * np.maximum(np.abs(s0.q[U]),
                                                                   np.abs(s1.q[U]))
+        if s1.z.size:
+            gz = self.state_gamma
+            e = np.concatenate([e, (gz - 0.5) * h * (s1.zd - s0.zd)])
+            scale = np.concatenate([scale, self.atol * self.zscale + self.rtol * np.maximum(
+                np.abs(s0.z), np.abs(s1.z))])
         return float(np.sqrt(np.mean((e / scale) ** 2))) if e.size else 0.0
 
     def stats(self, stepper) -> dict:
@@ -169,7 +180,7 @@ class _Run:
                                     "the impulse an ideal prescribed motion needs (%.4g J); "
                                     "a pchip or spline table moves it smoothly", tb, dw)
                     self.impulses += 1
-                s = stepper.start(float(tb), s.q, v)
+                s = stepper.start(float(tb), s.q, v, *((s.z,) if s.z.size else ()))
                 work = work + np.array([dw, 0.0])
             self.t1 = end
             return self._segment(stepper, s, work, grid, advance)
@@ -179,7 +190,7 @@ class _Run:
     def _segment(self, stepper, s, work, grid, advance):
         """:meth:`march` to t1 without a break in between."""
         if grid.due(s.t):
-            grid.record(s.t, s.q, s.v, work)
+            grid.record(s.t, s.q, s.v, work, s.z)
         while s.t < self.t1 - same_time(self.t1):
             msg = self._budget(s.t)
             if msg:
@@ -216,7 +227,8 @@ class _Run:
             else:  # back towards the user's step after a halved one
                 self.h = min(2.0 * h, self.nominal)
             work1 = work + 0.5 * h * (s.powers + s1.powers)
-            grid.fill_hermite(s.t, s.q, s.v, work, s1.t, s1.q, s1.v, work1)
+            grid.fill_hermite(s.t, s.q, s.v, work, s1.t, s1.q, s1.v, work1,
+                              (s.z, s.zd, s1.z, s1.zd) if s.z.size else None)
             advance(grid.k)
             s, work = s1, work1
             self.steps += 1
@@ -243,7 +255,8 @@ class _Run:
         done, why, before, last, work1 = stepper.march(s, h, count, work)
         if done:
             grid.fill_hermite(before[0], before[1], before[2], before[3], last.t, last.q,
-                              last.v, work1)
+                              last.v, work1,
+                              (before[4], before[5], last.z, last.zd) if last.z.size else None)
             advance(grid.k)
             s, work = last, work1
             self.steps += done

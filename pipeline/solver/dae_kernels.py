@@ -10,7 +10,8 @@ closure rows, a saddle-point solve, Newton bookkeeping); in Python their call ov
 Arguments are grouped in tuples: ``kin`` the CompiledMechanism arrays in the order of
 :func:`kin_tuple`, ``mass`` the CompiledMasses arrays, ``frc`` the force elements' ForceData
 (:mod:`pipeline.dynamics.forces.compiled`) and ``par`` the scalar settings
-(alpha_m, alpha_f, beta, gamma, rtol, atol, closure_tol, jump, eps).
+(alpha_m, alpha_f, beta, gamma, rtol, atol, closure_tol, jump, eps, and the first-order
+alpha_m and gamma of the elements' states).
 """
 
 from __future__ import annotations
@@ -20,11 +21,11 @@ from numba import njit
 
 from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
 from pipeline.dynamics.compiled import _kernel as _inertia
-from pipeline.dynamics.forces.compiled import generalized_forces, potential
+from pipeline.dynamics.forces.compiled import generalized_forces, potential, state_rates
 from pipeline.kinematics.compiled import _kernel as _kinematics
 from pipeline.solver.generalized_alpha import NEWTON_SHARE
 
-__all__ = ["kin_tuple", "march", "mass_tuple", "output", "step", "terms"]
+__all__ = ["kin_tuple", "march", "mass_tuple", "output", "start", "step", "terms"]
 
 MAX_NEWTON = 12
 REFRESH_AFTER = 3
@@ -40,20 +41,24 @@ def mass_tuple(cm) -> tuple:
 
 
 @njit(cache=True)
-def terms(q, v, factor, kin, mass, K, D, g, w, frc):
-    """(M (n, n), rhs (n,), Q_nc (n,), c (m,), C (m, n), gamma (m,)) at (q, v): the
-    equations M q'' + C^T lambda = rhs, c = w Phi, C = dc/dq, C q'' = gamma (weighted)."""
-    return _terms(q, v, factor, kin, mass, K, D, g, w, frc)[:6]
+def terms(q, v, z, factor, kin, mass, K, D, g, w, frc):
+    """(M (n, n), rhs (n,), Q_nc (n,), c (m,), C (m, n), gamma (m,), z' (nz,)) at (q, v)
+    and the elements' states z: the equations M q'' + C^T lambda = rhs, c = w Phi,
+    C = dc/dq, C q'' = gamma (weighted), and the states' rates."""
+    return _terms(q, v, z, factor, kin, mass, K, D, g, w, frc)[:7]
 
 
 @njit(cache=True, inline='always')
-def _terms(q, v, factor, kin, mass, K, D, g, w, frc):
+def _terms(q, v, z, factor, kin, mass, K, D, g, w, frc):
     """:func:`terms` and the link poses A, dA and the closure residual r used."""
     A, dA, Ad, Add, r, J, gam = _kinematics(q, v, True, *kin)
     M, hv, Qg = _inertia(q, v, True, A, dA, Ad, Add, g, *mass)
     Qnc = -(D @ v)
     Qf = np.zeros(q.shape[0])
-    generalized_forces(q, v, A, dA, factor, frc, Qf, Qnc)
+    generalized_forces(q, v, z, A, dA, factor, frc, Qf, Qnc)
+    zd = np.zeros(z.shape[0])
+    if z.shape[0]:
+        state_rates(q, v, z, A, dA, factor, frc, zd)
     rhs = Qg - K @ q - (D @ v) + Qf - hv
     m = r.shape[0]
     c = np.empty(m)
@@ -64,7 +69,7 @@ def _terms(q, v, factor, kin, mass, K, D, g, w, frc):
         gw[i] = w[i] * gam[i]
         for j in range(q.shape[0]):
             C[i, j] = w[i] * J[i, j]
-    return M, rhs, Qnc, c, C, gw, A, dA, r
+    return M, rhs, Qnc, c, C, gw, zd, A, dA, r
 
 
 @njit(cache=True)
@@ -202,20 +207,27 @@ def _powers(M, rhs, Qnc, C, gw, v, aP, U, P, eps):
 
 
 @njit(cache=True)
-def step(q0, v0, qdd0, a0, lam0, h, qP, vP, aP, factor, par, unit, U, P, S, sinfo,
-         kin, mass, K, D, g, w, frc):
-    """One step of size h from (q0, v0, qdd0, a0, lam0) (index3.Index3Stepper.step).
+def step(q0, v0, qdd0, a0, lam0, z0, zd0, b0, h, qP, vP, aP, factor, par, unit, zunit, U, P,
+         S, sinfo, kin, mass, K, D, g, w, frc):
+    """One step of size h from (q0, v0, qdd0, a0, lam0) and the elements' states (z0, their
+    rates zd0, their acceleration-like variable b0) (index3.Index3Stepper.step; the states
+    by first-order generalised-alpha, par[9:11] = its alpha_m and gamma, in the same Newton
+    iteration: unknowns q_U and z, the states' residual z' - f(q, v, z) scaled by c_z).
 
-    ``S`` (nU, nU) is the scaled iteration matrix, refreshed in place; ``sinfo`` = [h of S,
-    stale flag, Jacobians, evaluations] is updated in place. Returns (status, q, v, qdd, a,
-    lam, iterations, largest correction, closure residual, driver power, -dissipated
-    power); status 0 converged, 1 Newton failed, 2 jump (another branch), 3 non-finite.
+    ``S`` (nU + nz, nU + nz) is the scaled iteration matrix, refreshed in place; ``sinfo`` =
+    [h of S, stale flag, Jacobians, evaluations] is updated in place. Returns (status, q, v,
+    qdd, a, lam, z, zd, b, iterations, largest correction, closure residual, driver power,
+    -dissipated power); status 0 converged, 1 Newton failed, 2 jump (another branch),
+    3 non-finite.
     """
     am, af, beta, gamma = par[0], par[1], par[2], par[3]
     rtol, atol, ctol, jump, eps = par[4], par[5], par[6], par[7], par[8]
+    amz, gz = par[9], par[10]
     bp = (1.0 - am) / (beta * h * h * (1.0 - af))
     gp = gamma / (beta * h)
-    nU, m = U.shape[0], w.shape[0]
+    cz = (1.0 - amz) / (gz * h * (1.0 - af))  # d z' / d z along the Newton direction
+    nU, m, nz = U.shape[0], w.shape[0], z0.shape[0]
+    nk = nU + nz
     qdd = qdd0.copy()
     for k in range(P.shape[0]):
         qdd[P[k]] = aP[k]
@@ -225,51 +237,52 @@ def step(q0, v0, qdd0, a0, lam0, h, qP, vP, aP, factor, par, unit, U, P, S, sinf
     for k in range(P.shape[0]):
         q[P[k]] = qP[k]
         v[P[k]] = vP[k]
+    zd = zd0.copy()
+    b1 = (zd0 - amz * b0) / (1.0 - amz)
+    z = z0 + h * ((1.0 - gz) * b0 + gz * b1)
     qpred = q.copy()
     lam = lam0.copy()
-    tol = np.empty(nU)
+    tol = np.empty(nk)
     for k in range(nU):
         tol[k] = atol * unit[U[k]] + rtol * abs(q[U[k]])
+    for k in range(nz):
+        tol[nU + k] = atol * zunit[k] + rtol * abs(z[k])
     refreshed = False
     prev = 0.0
     cerr = np.inf
     moved = 0.0
-    M, rhs, Qnc, c, C, gw = terms(q, v, factor, kin, mass, K, D, g, w, frc)
+    R = np.empty(nk)
+    M, rhs, Qnc, c, C, gw, f = terms(q, v, z, factor, kin, mass, K, D, g, w, frc)
     for it in range(MAX_NEWTON):
         if it:
-            M, rhs, Qnc, c, C, gw = terms(q, v, factor, kin, mass, K, D, g, w, frc)
+            M, rhs, Qnc, c, C, gw, f = terms(q, v, z, factor, kin, mass, K, D, g, w, frc)
         sinfo[3] += 1.0
         G = _residual_rows(M, rhs, C, qdd, lam, U)
+        for k in range(nU):
+            R[k] = G[k] / bp
+        for k in range(nz):
+            R[nU + k] = (zd[k] - f[k]) / cz
         cerr = 0.0
         for i in range(m):
             cerr = max(cerr, abs(c[i]))
-        if not (np.all(np.isfinite(G)) and np.isfinite(cerr)):
-            return 3, q, v, qdd, a1, lam, it, moved, cerr, 0.0, 0.0
+        if not (np.all(np.isfinite(R)) and np.isfinite(cerr)):
+            return 3, q, v, qdd, a1, lam, z, zd, b1, it, moved, cerr, 0.0, 0.0
         ratio = h / sinfo[0] if sinfo[0] > 0 else 0.0
         if sinfo[0] <= 0 or ratio < 0.5 or ratio > 2.0 or sinfo[1] > 0 or \
                 (it == REFRESH_AFTER and not refreshed):
-            for kk in range(nU):  # forward differences along the Newton direction
-                i = U[kk]
-                d = 1e-7 * max(unit[i], abs(q[i]))
-                qq, vv, aa = q.copy(), v.copy(), qdd.copy()
-                qq[i] += d
-                vv[i] += gp * d
-                aa[i] += bp * d
-                M2, rhs2, _, _, C2, _ = terms(qq, vv, factor, kin, mass, K, D, g, w, frc)
-                G2 = _residual_rows(M2, rhs2, C2, aa, lam, U)
-                for r in range(nU):
-                    S[r, kk] = (G2[r] - G[r]) / (d * bp)
+            _jacobian(q, v, qdd, lam, z, zd, G, zd - f, bp, gp, cz, factor, unit, zunit, U, S,
+                      kin, mass, K, D, g, w, frc)
             sinfo[0], sinfo[1] = h, 0.0
             sinfo[2] += 1.0
-            sinfo[3] += nU
+            sinfo[3] += nk
             refreshed = True
-        CU = np.empty((m, nU))
+        CU = np.zeros((m, nk))
         for i in range(m):
             for kk in range(nU):
                 CU[i, kk] = C[i, U[kk]]
-        x, dl = _saddle(S, CU, -G / bp, -c, eps, 0)
+        x, dl = _saddle(S, CU, -R, -c, eps, 0)
         if not np.all(np.isfinite(x)):
-            return 1, q, v, qdd, a1, lam, it + 1, moved, cerr, 0.0, 0.0
+            return 1, q, v, qdd, a1, lam, z, zd, b1, it + 1, moved, cerr, 0.0, 0.0
         moved = 0.0
         for kk in range(nU):
             i = U[kk]
@@ -277,9 +290,12 @@ def step(q0, v0, qdd0, a0, lam0, h, qP, vP, aP, factor, par, unit, U, P, S, sinf
             v[i] += gp * x[kk]
             qdd[i] += bp * x[kk]
             moved = max(moved, abs(q[i] - qpred[i]) / unit[i])
+        for k in range(nz):
+            z[k] += x[nU + k]
+            zd[k] += cz * x[nU + k]
         lam += bp * dl
         if moved > jump:
-            return 2, q, v, qdd, a1, lam, it + 1, moved, cerr, 0.0, 0.0
+            return 2, q, v, qdd, a1, lam, z, zd, b1, it + 1, moved, cerr, 0.0, 0.0
         norm, user = 0.0, 0.0
         for kk in range(nU):
             i = U[kk]
@@ -287,6 +303,11 @@ def step(q0, v0, qdd0, a0, lam0, h, qP, vP, aP, factor, par, unit, U, P, S, sinf
             tl = min(tol[kk], max(NEWTON_SHARE * eloc, 1e-14 * (abs(q[i]) + unit[i])))
             norm = max(norm, abs(x[kk]) / tl)
             user = max(user, abs(x[kk]) / tol[kk])
+        for k in range(nz):  # the states' local error is O(h^2 (z'_1 - z'_0)) likewise
+            eloc = abs((gz - 0.5) * h * (zd[k] - zd0[k]))
+            tl = min(tol[nU + k], max(NEWTON_SHARE * eloc, 1e-14 * (abs(z[k]) + zunit[k])))
+            norm = max(norm, abs(x[nU + k]) / tl)
+            user = max(user, abs(x[nU + k]) / tol[nU + k])
         theta = norm / prev if prev > 0 else 0.0
         if theta >= 1.0 and it >= 2 and not refreshed:
             sinfo[1] = 1.0
@@ -299,35 +320,66 @@ def step(q0, v0, qdd0, a0, lam0, h, qP, vP, aP, factor, par, unit, U, P, S, sinf
             a_new = a1 + (1.0 - af) / (1.0 - am) * (qdd - qdd0)
             for k in range(P.shape[0]):
                 a_new[P[k]] = aP[k]
+            b_new = b1 + (1.0 - af) / (1.0 - amz) * (zd - zd0)
             pd, pnc = _powers(M, rhs, Qnc, C, gw, v, aP, U, P, eps)
-            return 0, q, v, qdd, a_new, lam, it + 1, moved, cerr, pd, pnc
+            return 0, q, v, qdd, a_new, lam, z, zd, b_new, it + 1, moved, cerr, pd, pnc
     sinfo[1] = 1.0
-    return 1, q, v, qdd, a1, lam, MAX_NEWTON, moved, cerr, 0.0, 0.0
+    return 1, q, v, qdd, a1, lam, z, zd, b1, MAX_NEWTON, moved, cerr, 0.0, 0.0
 
 
 @njit(cache=True)
-def march(q, v, qdd, a, lam, t0, h, qP, vP, aP, factors, work, powers, par, unit, U, P, S,
-          sinfo, kin, mass, K, D, g, w, frc):
+def _jacobian(q, v, qdd, lam, z, zd, G, H, bp, gp, cz, factor, unit, zunit, U, S, kin, mass,
+              K, D, g, w, frc):
+    """S (nU + nz, nU + nz) = dR/dx by forward differences along the Newton direction: a
+    change d of q_i moves v_i by gamma' d and q''_i by beta' d; one of z_k moves z'_k by
+    c_z d (R = [G / beta', H / c_z] the scaled residual of :func:`step`: G the dynamic
+    rows on U, H = z' - f the states')."""
+    nU, nz = U.shape[0], z.shape[0]
+    for kk in range(nU + nz):
+        qq, vv, aa, zz, zzd = q.copy(), v.copy(), qdd.copy(), z.copy(), zd.copy()
+        if kk < nU:
+            i = U[kk]
+            d = 1e-7 * max(unit[i], abs(q[i]))
+            qq[i] += d
+            vv[i] += gp * d
+            aa[i] += bp * d
+        else:
+            k = kk - nU
+            d = 1e-7 * max(zunit[k], abs(z[k]))
+            zz[k] += d
+            zzd[k] += cz * d
+        M2, rhs2, _, _, C2, _, f2 = terms(qq, vv, zz, factor, kin, mass, K, D, g, w, frc)
+        G2 = _residual_rows(M2, rhs2, C2, aa, lam, U)
+        for r in range(nU):
+            S[r, kk] = (G2[r] - G[r]) / (d * bp)
+        for r in range(nz):
+            S[nU + r, kk] = ((zzd[r] - f2[r]) - H[r]) / (d * cz)
+
+
+@njit(cache=True)
+def march(q, v, qdd, a, lam, z, zd, b, t0, h, qP, vP, aP, factors, work, powers, par, unit,
+          zunit, U, P, S, sinfo, kin, mass, K, D, g, w, frc):
     """Steps of size h from t0 while the tables last (qP, vP, aP: (k, p) driver values,
     factors (k, F) force histories at t0 + (j + 1) h). The state arrays, ``work`` (driver
     work, dissipated energy) and ``powers`` (their rates at the state) advance in place.
     Returns (steps done, status of the failed step or 0, the state before the last step
-    (q, v, work), Newton iterations in all)."""
-    qprev, vprev, wprev = q.copy(), v.copy(), work.copy()
+    (q, v, work, z, zd), Newton iterations in all)."""
+    qprev, vprev, wprev, zprev, zdprev = q.copy(), v.copy(), work.copy(), z.copy(), zd.copy()
     iters = 0
     for j in range(qP.shape[0]):
-        st, q1, v1, qdd1, a1, lam1, it, _, _, pd, pnc = step(
-            q, v, qdd, a, lam, h, qP[j], vP[j], aP[j], factors[j], par, unit, U, P, S, sinfo,
-            kin, mass, K, D, g, w, frc)
+        st, q1, v1, qdd1, a1, lam1, z1, zd1, b1, it, _, _, pd, pnc = step(
+            q, v, qdd, a, lam, z, zd, b, h, qP[j], vP[j], aP[j], factors[j], par, unit, zunit,
+            U, P, S, sinfo, kin, mass, K, D, g, w, frc)
         iters += it
         if st != 0:
-            return j, st, qprev, vprev, wprev, iters
-        qprev[:], vprev[:], wprev[:] = q, v, work
+            return j, st, qprev, vprev, wprev, zprev, zdprev, iters
+        qprev[:], vprev[:], wprev[:], zprev[:], zdprev[:] = q, v, work, z, zd
         work[0] += 0.5 * h * (powers[0] + pd)
         work[1] += 0.5 * h * (powers[1] + pnc)
         powers[0], powers[1] = pd, pnc
         q[:], v[:], qdd[:], a[:], lam[:] = q1, v1, qdd1, a1, lam1
-    return qP.shape[0], 0, qprev, vprev, wprev, iters
+        z[:], zd[:], b[:] = z1, zd1, b1
+    return qP.shape[0], 0, qprev, vprev, wprev, zprev, zdprev, iters
 
 
 @njit(cache=True)
@@ -382,7 +434,7 @@ def _svd_parts(CU, rank_rtol):
 
 
 @njit(cache=True)
-def output(q, v, qP, vP, aP, factor, U, P, rank_rtol, kin, mass, K, D, g, w, frc):
+def output(q, v, z, qP, vP, aP, factor, U, P, rank_rtol, kin, mass, K, D, g, w, frc):
     """The consistent state reported at an output time (module ``outputs``): q and v moved
     onto the constraints by least-norm changes of U, the index-1 accelerations and the
     minimum-norm multipliers there (null-space solve on the SVD of C_U), the driver forces
@@ -418,7 +470,7 @@ def output(q, v, qP, vP, aP, factor, U, P, rank_rtol, kin, mass, K, D, g, w, frc
             dv = Vr @ ((Urt @ CV) / sr)  # least-norm change of v_U
             for k in range(U.shape[0]):
                 v[U[k]] -= dv[k]
-    M, rhs, _, c, C, gw, A, dA, r = _terms(q, v, factor, kin, mass, K, D, g, w, frc)
+    M, rhs, _, c, C, gw, zd, A, dA, r = _terms(q, v, z, factor, kin, mass, K, D, g, w, frc)
     nU = U.shape[0]
     qdd, MUU, f, _, gg = _reduced(M, rhs, C, gw, aP, U, P)
     lam = np.zeros(m)
@@ -442,15 +494,27 @@ def output(q, v, qP, vP, aP, factor, U, P, rank_rtol, kin, mass, K, D, g, w, frc
     res = 0.0
     for i in range(m):
         res = max(res, abs(r[i]))
-    return q, v, qdd, lam, FP, e, res
+    return q, v, qdd, lam, FP, e, res, zd
+
+
+@njit(cache=True)
+def start(q, v, z, aP, factor, U, P, eps, kin, mass, K, D, g, w, frc):
+    """(q'' (n,), lambda (m,), z' (nz,), driver power, -dissipated power) at a consistent
+    (q, v) and the elements' states z: the start of a run with element states (the
+    regularised, refined index-1 solve)."""
+    M, rhs, Qnc, _, C, gw, zd = terms(q, v, z, factor, kin, mass, K, D, g, w, frc)
+    qdd, lam = _index1(M, rhs, C, gw, aP, U, P, eps)
+    pd, pnc = _powers(M, rhs, Qnc, C, gw, v, aP, U, P, eps)
+    return qdd, lam, zd, pd, pnc
 
 
 @njit(cache=True)
 def index1_rhs(q, v, aP, factor, U, P, eps, kin, mass, K, D, g, w, frc):
     """(q''_U, driver power, -dissipated power) of the index-1 form at (q, v) (drivers
-    already set): M q'' + C^T lambda = rhs, C q'' = gamma by the regularised, refined
-    saddle-point solve (constrained.ConstrainedSystem.accelerations with eps)."""
-    M, rhs, Qnc, _, C, gw = terms(q, v, factor, kin, mass, K, D, g, w, frc)
+    already set; no element states): M q'' + C^T lambda = rhs, C q'' = gamma by the
+    regularised, refined saddle-point solve (constrained.ConstrainedSystem.accelerations
+    with eps)."""
+    M, rhs, Qnc, _, C, gw, _ = terms(q, v, np.zeros(0), factor, kin, mass, K, D, g, w, frc)
     qdd, lam = _index1(M, rhs, C, gw, aP, U, P, eps)
     pd = 0.0
     if P.shape[0]:

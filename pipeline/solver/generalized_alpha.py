@@ -53,6 +53,24 @@ def coefficients(rho_inf: float) -> tuple[float, float, float, float]:
     return am, af, beta, gamma
 
 
+def first_order_coefficients(rho_inf: float) -> tuple[float, float]:
+    """(alpha_m, gamma) of first-order generalised-alpha (Jansen, Whiting & Hulbert 2000)
+    in the convention of :func:`coefficients` ((1 - alpha_m) b_{n+1} + alpha_m b_n =
+    (1 - alpha_f) z'_{n+1} + alpha_f z'_n, z_{n+1} = z_n + h ((1 - gamma) b_n + gamma
+    b_{n+1}), alpha_f the second-order method's): second order, and both roots at
+    -rho_inf where h lambda -> -inf, for states stepped with the motion (an element's own
+    states, such as hydraulic pressures).
+
+    Examples
+    --------
+    >>> first_order_coefficients(1.0)
+    (0.5, 0.5)
+    """
+    af = coefficients(rho_inf)[1]
+    amz = (3.0 * rho_inf - 1.0) / (2.0 * (rho_inf + 1.0))
+    return amz, 0.5 + af - amz
+
+
 class GeneralizedAlpha(OdeSolver):
     """Fixed-step generalised-alpha for y = [q (k), v (k), extras (e)] with
     fun(t, y) = [v, a(t, q, v), extras'] (see the module docstring).

@@ -35,7 +35,7 @@ highest frequencies by the user's rho_inf.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as sla
@@ -51,7 +51,9 @@ class StepState:
     """An accepted state: t (s), q, v, qdd (n,), a (n,) the algorithm's acceleration-like
     variable, lam (m,) multipliers, powers (2,) the driver power and minus the dissipated
     power there (W; from the index-1 accelerations and multipliers of the state: the
-    index-3 multipliers carry O(h) errors after the start and after step-size changes)."""
+    index-3 multipliers carry O(h) errors after the start and after step-size changes);
+    z, zd, b (nz,) the force elements' own states, their rates and the first-order
+    method's acceleration-like variable (empty without such elements)."""
 
     t: float
     q: np.ndarray
@@ -60,6 +62,9 @@ class StepState:
     a: np.ndarray
     lam: np.ndarray
     powers: np.ndarray
+    z: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    zd: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    b: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 @dataclass(frozen=True)

@@ -12,11 +12,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from pipeline.core.errors import ConfigError
 from pipeline.kinematics.partition import RANK_RTOL
 from pipeline.solver import dae_kernels as K
 from pipeline.solver.constrained import ConstrainedSystem
 from pipeline.solver.dae_data import CompiledDae, compile_dae, force_factors
-from pipeline.solver.generalized_alpha import coefficients
+from pipeline.solver.generalized_alpha import coefficients, first_order_coefficients
 from pipeline.solver.index3 import Index3Stepper, StepOutcome, StepState, powers
 
 __all__ = ["CompiledStepper", "stepper"]
@@ -33,9 +34,13 @@ class CompiledStepper:
         self.cs, self.data = cs, data
         self.am, self.af, self.beta, self.gamma = coefficients(rho_inf)
         self.par = np.array([self.am, self.af, self.beta, self.gamma, newton_rtol, newton_atol,
-                             closure_tol, jump, eps])
+                             closure_tol, jump, eps, *first_order_coefficients(rho_inf)])
         self.unit = data.unit if unit is None else np.asarray(unit, dtype=float)
-        self.S = np.zeros((cs.U.size, cs.U.size))
+        self.eps = float(eps)
+        #: the force elements' own states: their start values and scales
+        self.z0, self.zunit = cs.system.initial_states(), cs.system.state_scales()
+        nk = cs.U.size + self.z0.size
+        self.S = np.zeros((nk, nk))
         self.sinfo = np.zeros(4)  # h of S (0: none), stale, Jacobians, evaluations
         self.args = (K.kin_tuple(data.kin), K.mass_tuple(data.masses), data.K, data.D,
                      data.gravity4, data.w, data.forces)
@@ -48,12 +53,20 @@ class CompiledStepper:
     def jacobians(self) -> int:
         return int(self.sinfo[2])
 
-    def start(self, t: float, q: np.ndarray, v: np.ndarray) -> StepState:
+    def start(self, t: float, q: np.ndarray, v: np.ndarray, z=None) -> StepState:
+        """The state at a consistent (q, v) (and the elements' states z; default their
+        start values): its accelerations and multipliers (index-1 solve)."""
         cs = self.cs
-        st = cs.evaluate(t, q, v)
         self.sinfo[3] += 1
-        qdd, lam = cs.accelerations(st)
-        return StepState(t, q.copy(), v.copy(), qdd, qdd.copy(), lam, powers(cs, st, v))
+        if not self.z0.size:
+            st = cs.evaluate(t, q, v)
+            qdd, lam = cs.accelerations(st)
+            return StepState(t, q.copy(), v.copy(), qdd, qdd.copy(), lam, powers(cs, st, v))
+        z = self.z0.copy() if z is None else np.array(z, dtype=float)
+        qdd, lam, zd, pd, pnc = K.start(q, v, z, cs.drive(t)[2], self._factors([t])[0], cs.U,
+                                        cs.P, self.eps, *self.args)
+        return StepState(t, q.copy(), v.copy(), qdd, qdd.copy(), lam, np.array([pd, pnc]),
+                         z, zd, zd.copy())
 
     def reset(self):
         self.sinfo[0] = 0.0
@@ -73,40 +86,42 @@ class CompiledStepper:
         cs = self.cs
         t1 = s0.t + h
         qP, vP, aP = cs.drive(t1)
-        out = K.step(s0.q, s0.v, s0.qdd, s0.a, s0.lam, float(h), qP, vP, aP,
-                     self._factors([t1])[0], self.par, self.unit, cs.U, cs.P, self.S,
-                     self.sinfo, *self.args)
-        status, q, v, qdd, a, lam, it, moved, cerr, pd, pnc = out
+        out = K.step(s0.q, s0.v, s0.qdd, s0.a, s0.lam, s0.z, s0.zd, s0.b, float(h), qP, vP,
+                     aP, self._factors([t1])[0], self.par, self.unit, self.zunit, cs.U, cs.P,
+                     self.S, self.sinfo, *self.args)
+        status, q, v, qdd, a, lam, z, zd, b, it, moved, cerr, pd, pnc = out
         if status:
             return StepOutcome(None, int(it), _WHY[int(status)], float(moved), float(cerr))
-        return StepOutcome(StepState(t1, q, v, qdd, a, lam, np.array([pd, pnc])), int(it), "",
-                           float(moved), float(cerr))
+        return StepOutcome(StepState(t1, q, v, qdd, a, lam, np.array([pd, pnc]), z, zd, b),
+                           int(it), "", float(moved), float(cerr))
 
     def march(self, s0: StepState, h: float, count: int, work: np.ndarray):
         """``count`` steps of size h from s0 in one call: (steps done, failure or "",
-        (t, q, v, work) before the last step done, the last state, work at it)."""
+        (t, q, v, work, z, zd) before the last step done, the last state, work at it)."""
         cs = self.cs
         times = s0.t + h * np.arange(1, count + 1)
         qP, vP, aP = cs.drive_table(times)
-        q, v, qdd, a, lam = (x.copy() for x in (s0.q, s0.v, s0.qdd, s0.a, s0.lam))
+        q, v, qdd, a, lam, z, zd, b = (x.copy() for x in (s0.q, s0.v, s0.qdd, s0.a, s0.lam,
+                                                           s0.z, s0.zd, s0.b))
         w, p = np.array(work, dtype=float), np.array(s0.powers, dtype=float)
-        done, status, qprev, vprev, wprev, _ = K.march(
-            q, v, qdd, a, lam, s0.t, float(h), qP, vP, aP, self._factors(times), w, p,
-            self.par, self.unit, cs.U, cs.P, self.S, self.sinfo, *self.args)
+        done, status, qprev, vprev, wprev, zprev, zdprev, _ = K.march(
+            q, v, qdd, a, lam, z, zd, b, s0.t, float(h), qP, vP, aP, self._factors(times), w,
+            p, self.par, self.unit, self.zunit, cs.U, cs.P, self.S, self.sinfo, *self.args)
         done = int(done)
         t = s0.t + h * done
-        last = StepState(t, q, v, qdd, a, lam, p)
-        before = (t - h, qprev, vprev, wprev)
+        last = StepState(t, q, v, qdd, a, lam, p, z, zd, b)
+        before = (t - h, qprev, vprev, wprev, zprev, zdprev)
         return done, _WHY.get(int(status), ""), before, last, w
 
 
-    def output(self, t: float, q: np.ndarray, v: np.ndarray):
+    def output(self, t: float, q: np.ndarray, v: np.ndarray, z=None):
         """(q, v, qdd, lam, driver forces, energies dict, closure residual) reported at t
-        (outputs.OutputGrid.record, compiled)."""
+        (and the elements' states z) (outputs.OutputGrid.record, compiled)."""
         cs = self.cs
         qP, vP, aP = cs.drive(t)
-        q, v, qdd, lam, F, e, res = K.output(q, v, qP, vP, aP, self._factors([t])[0], cs.U,
-                                             cs.P, RANK_RTOL, *self.args)
+        z = np.zeros(0) if z is None else z
+        q, v, qdd, lam, F, e, res, _ = K.output(q, v, z, qP, vP, aP, self._factors([t])[0],
+                                                cs.U, cs.P, RANK_RTOL, *self.args)
         names = ("kinetic", "gravity", "elastic", "forces")
         return q, v, qdd, lam, F, {k: float(x) for k, x in zip(names, e)}, float(res)
 
@@ -121,8 +136,16 @@ class CompiledStepper:
 
 def stepper(cs: ConstrainedSystem, **kw):
     """A compiled stepper for ``cs`` when its force elements allow one, else the numpy
-    :class:`Index3Stepper` (same interface)."""
+    :class:`Index3Stepper` (same interface; it has no element states)."""
     data = compile_dae(cs.system, cs.U, cs.P)
     if data is None:
+        from pipeline.dynamics.forces.compiled import uncompiled
+
+        if cs.system.state_slices:
+            raise ConfigError(
+                f"force element(s) {uncompiled(cs.system.forces)} have no compiled form, "
+                f"and the elements with states of their own "
+                f"({', '.join(f.name for f, _ in cs.system.state_slices)}) are integrated by "
+                f"the compiled step only")
         return Index3Stepper(cs, **kw)
     return CompiledStepper(cs, data, **kw)

@@ -369,7 +369,13 @@ def check(system, r: SimulationResult, limits: Limits = Limits(),
     span = (t_span[1] - t_span[0]) if t_span else (float(r.t[-1] - r.t[0]) if r.t.size else 1.0)
     return tuple(_energy(r, limits) + _closure(r, limits) + _deformation(system, r, limits)
                  + _spin(system, r, limits) + _axial_load(system, r, limits) + _step_error(r)
-                 + _steps(r, limits, span))
+                 + _steps(r, limits, span) + _elements(system, r))
+
+
+def _elements(system, r: SimulationResult) -> list[str]:
+    """What the force elements find in the run that their models leave out (an element's
+    ``run_checks``: a hydraulic cylinder past its ends or cavitating)."""
+    return [w for f in system.forces if hasattr(f, "run_checks") for w in f.run_checks(system, r)]
 
 
 def judge(system, r: SimulationResult, limits: Limits = Limits(),

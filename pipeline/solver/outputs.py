@@ -56,32 +56,36 @@ class OutputGrid:
         """Is the next output time at or before t?"""
         return self.k < self.te.size and self.te[self.k] <= t + same_time(t)
 
-    def fill_hermite(self, t0, q0, v0, w0, t1, q1, v1, w1):
+    def fill_hermite(self, t0, q0, v0, w0, t1, q1, v1, w1, z=None):
         """Record every output time in (t0, t1] from the cubic Hermite interpolant of the
         step's end states; w: (driver work, dissipated energy) at each end, interpolated
-        linearly."""
+        linearly; z: (z0, z0', z1, z1') the force elements' own states and their rates at
+        the ends (Hermite too), or None without such states."""
         h = t1 - t0
         while self.due(t1):
             tk = self.te[self.k]
             if abs(tk - t1) <= same_time(t1):
-                self.record(tk, q1, v1, w1)
+                self.record(tk, q1, v1, w1, None if z is None else z[2])
                 continue
             s = 0.0 if h <= 0 else min(max((tk - t0) / h, 0.0), 1.0)
             q, v = hermite(q0, v0, q1, v1, h, s)
-            self.record(tk, q, v, (1.0 - s) * np.asarray(w0) + s * np.asarray(w1))
+            zk = None if z is None else hermite(z[0], z[1], z[2], z[3], h, s)[0]
+            self.record(tk, q, v, (1.0 - s) * np.asarray(w0) + s * np.asarray(w1), zk)
 
-    def record(self, t, q, v, work):
-        """Project (q, v) at t, evaluate and append an output row."""
+    def record(self, t, q, v, work, z=None):
+        """Project (q, v) at t, evaluate and append an output row (z: the elements' own
+        states there, if the system has any)."""
         tic = time.perf_counter()
         try:
-            self._record(t, q, v, work)
+            self._record(t, q, v, work, np.zeros(0) if z is None else np.asarray(z))
         finally:
             self.seconds += time.perf_counter() - tic
 
-    def _record(self, t, q, v, work):
+    def _record(self, t, q, v, work, z):
         if self.compiled is not None:
-            q, v, qdd, lam, F, e, res = self.compiled(t, q, v)
-            self._append(t, q, v, qdd, lam, F, e, res, work)
+            q, v, qdd, lam, F, e, res = self.compiled(t, q, v, z) if z.size else \
+                self.compiled(t, q, v)
+            self._append(t, q, v, qdd, lam, F, e, res, work, z)
             return
         cs = self.cs
         q = cs.project_positions(t, q)
@@ -93,13 +97,13 @@ class OutputGrid:
         qdd, lam = cs.accelerations(st)
         e = energies(cs.system, st.terms.tree, q, v, M=st.terms.M)
         res = float(np.abs(st.c / cs.w).max()) if cs.m else 0.0
-        self._append(t, q, v, qdd, lam, cs.driver_forces(st, qdd, lam), e, res, work)
+        self._append(t, q, v, qdd, lam, cs.driver_forces(st, qdd, lam), e, res, work, z)
 
-    def _append(self, t, q, v, qdd, lam, F, e, res, work):
+    def _append(self, t, q, v, qdd, lam, F, e, res, work, z):
         e["driver_work"], e["dissipated"] = float(work[0]), float(work[1])
         e["total"] = (e["kinetic"] + e["gravity"] + e["elastic"] + e["forces"] + e["dissipated"]
                       - e["driver_work"])
-        self.rows.append((t, q, v, qdd, e, res, F, lam))
+        self.rows.append((t, q, v, qdd, e, res, F, lam, np.array(z, dtype=float)))
         self.k += 1
 
     def result(self, msg, steps, n_eval, total, method, stats) -> SimulationResult:
@@ -121,4 +125,6 @@ class OutputGrid:
             qdd=stack(3, n), energies=en, closure_residual=np.array([r[5] for r in rows]),
             n_steps=steps, n_rhs=n_eval, timings=timings, method=method,
             driven=tuple(names[i] for i in cs.P), driver_forces=stack(6, cs.P.size),
-            multipliers=stack(7, cs.m), step_stats=stats, formulation="dae")
+            multipliers=stack(7, cs.m), step_stats=stats, formulation="dae",
+            state_names=cs.system.state_names,
+            states=stack(8, len(cs.system.state_names)))

@@ -48,6 +48,8 @@ class SimulationResult:
     verdict : "ok", "suspect" (finished, but a trust check tripped: see ``warnings``) or
         "partial" (stopped early: see ``message``).
     warnings : what each tripped trust check found (:mod:`pipeline.solver.monitors`).
+    state_names : names ``<element>.<state>`` of the force elements' own states.
+    states : (k, nz) their values (a hydraulic cylinder's chamber pressures, Pa).
     """
 
     success: bool
@@ -72,6 +74,8 @@ class SimulationResult:
     formulation: str = "partitioned"
     verdict: str = ""
     warnings: tuple[str, ...] = ()
+    state_names: tuple[str, ...] = ()
+    states: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "energies", MappingProxyType(dict(self.energies)))
@@ -81,6 +85,7 @@ class SimulationResult:
         object.__setattr__(self, "driven", tuple(self.driven))
         object.__setattr__(self, "reselections", tuple(self.reselections))
         object.__setattr__(self, "warnings", tuple(self.warnings))
+        object.__setattr__(self, "state_names", tuple(self.state_names))
         if not self.verdict:
             object.__setattr__(self, "verdict", "ok" if self.success else "partial")
 
@@ -92,6 +97,10 @@ class SimulationResult:
     def coordinate(self, name: str) -> np.ndarray:
         """(k,) history of coordinate ``name``."""
         return self.q[:, self.coordinates.index(name)]
+
+    def state(self, name: str) -> np.ndarray:
+        """(k,) history of a force element's own state ``name`` (``<element>.<state>``)."""
+        return self.states[:, self.state_names.index(name)]
 
     def save_npz(self, path):
         """Write every array and the scalars to ``path`` (.npz) atomically; returns the path."""
@@ -106,7 +115,9 @@ class SimulationResult:
                   "reselections": np.array(self.reselections, dtype=float),
                   "multipliers": self.multipliers, "formulation": np.array(self.formulation),
                   "verdict": np.array(self.verdict),
-                  "warnings": np.array(self.warnings, dtype=str)}
+                  "warnings": np.array(self.warnings, dtype=str),
+                  "state_names": np.array(self.state_names, dtype=str),
+                  "states": self.states}
         arrays.update({f"energy_{k}": v for k, v in self.energies.items()})
         arrays.update({f"timing_{k}": np.array(v) for k, v in self.timings.items()})
         return save_npz_atomic(path, **arrays)
@@ -116,11 +127,12 @@ class SimulationResult:
         cols = (["t"] + list(self.coordinates) + [f"d({c})" for c in self.coordinates]
                 + [f"dd({c})" for c in self.coordinates]
                 + [f"energy_{k}" for k in self.energies] + ["closure_residual"]
-                + [f"force({c})" for c in self.driven])
+                + [f"force({c})" for c in self.driven] + list(self.state_names))
         data = np.column_stack([self.t, self.q, self.qd, self.qdd]
                                + [np.asarray(v) for v in self.energies.values()]
                                + [self.closure_residual, self.driver_forces.reshape(
-                                   self.t.size, -1)]) if self.t.size else np.zeros((0, len(cols)))
+                                   self.t.size, -1), self.states.reshape(self.t.size, -1)]
+                               ) if self.t.size else np.zeros((0, len(cols)))
         with atomic_open(path, "w", newline="") as fh:
             fh.write(f"# verdict={self.verdict} status={self.status} message={self.message}"
                      + "".join(f" | warning: {w}" for w in self.warnings) + "\n")

@@ -10,8 +10,8 @@ Inputs are named when the simulator is built, each with its start value:
 
 * a force element's name: its history value (the element's force, torque or point force
   times this number; a ``JointForce(name, coordinate, 1.0)`` takes the force in N or N m
-  itself), held constant over each step (zero-order hold). It replaces the element's own
-  history.
+  itself; a hydraulic cylinder's valve command in [-1, 1]), held constant over each step
+  (zero-order hold). It replaces the element's own history (the cylinder's command).
 * a driven coordinate's name: its value (m or rad), reached linearly over each step
   (first-order hold: rate constant over the step, acceleration zero within it). It
   replaces the coordinate's driver; it starts from that driver's value at t0, at rest.
@@ -106,7 +106,9 @@ class SimulatorState:
     minus the dissipated power, W.  work : (2,) driver work and dissipated energy so far,
     J.  inputs : {name: value held (forces) or reached (drivers) at t}.
     memory : what the next step reuses (its iteration matrix): restored with the rest, the
-    continuation repeats the first one bit for bit.
+    continuation repeats the first one bit for bit.  z, zd, b : (nz,) the force elements'
+    own states (a hydraulic cylinder's pressures, Pa), their rates and the method's
+    variable for them.
     """
 
     t: float
@@ -119,6 +121,9 @@ class SimulatorState:
     work: np.ndarray
     inputs: Mapping[str, float] = field(default_factory=dict)
     memory: object = None
+    z: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    zd: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    b: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 class Simulator:
@@ -217,7 +222,8 @@ class Simulator:
         s = self._s
         return SimulatorState(s.t, s.q.copy(), s.v.copy(), s.qdd.copy(), s.a.copy(),
                               s.lam.copy(), np.array(s.powers, dtype=float),
-                              self._work.copy(), dict(self.inputs), self._stepper.memory())
+                              self._work.copy(), dict(self.inputs), self._stepper.memory(),
+                              s.z.copy(), s.zd.copy(), s.b.copy())
 
     def set_state(self, state: SimulatorState) -> None:
         """Continue from ``state`` (taken from this simulator): the history after its time
@@ -226,7 +232,8 @@ class Simulator:
             raise ConfigError("Simulator.set_state: expected a SimulatorState of this machine")
         self._s = StepState(float(state.t), state.q.copy(), state.qd.copy(),
                             state.qdd.copy(), state.a.copy(), state.lam.copy(),
-                            np.array(state.powers, dtype=float))
+                            np.array(state.powers, dtype=float), state.z.copy(),
+                            state.zd.copy(), state.b.copy())
         self._work = np.array(state.work, dtype=float)
         for name, x in state.inputs.items():
             h = self._held[name]
@@ -291,7 +298,7 @@ class Simulator:
             # was 10x the error the calls' check saw); start afresh from the state instead,
             # with the impulse a driven rate's jump needs
             v, dw = self._cs.across_break(t0, start.q, start.v, before=start.v[self._cs.P])
-            start = self._stepper.start(t0, start.q, v)
+            start = self._stepper.start(t0, start.q, v, *((start.z,) if start.z.size else ()))
             work = work + np.array([dw, 0.0])
         s, work, msg = march_guarded(self._run, self._stepper, start, work,
                                      self._grid, _quiet)
@@ -326,7 +333,8 @@ class Simulator:
         run.t1, run.h, run.nominal = t1, other, other
         grid = OutputGrid(self._cs, np.array([t1]), getattr(stepper, "output", None))
         s0 = StepState(before.t, before.q.copy(), before.v.copy(), before.qdd.copy(),
-                       before.a.copy(), before.lam.copy(), np.array(before.powers))
+                       before.a.copy(), before.lam.copy(), np.array(before.powers),
+                       before.z.copy(), before.zd.copy(), before.b.copy())
         _, _, msg = march_guarded(run, stepper, s0, work.copy(), grid, _quiet)
         if msg or not grid.rows:
             return f"the check at {other:g} s steps failed: {msg}"
@@ -449,18 +457,20 @@ def _with_inputs(system, declared: dict, t0: float):
             drivers[name] = h
         elif name in forces:
             f = forces[name]
-            if not hasattr(f, "history"):
+            field_ = getattr(f, "HISTORY", "history")  # a valve's command, a force's history
+            if not hasattr(f, field_):
                 raise ConfigError(f"Simulator: input {name!r}: force element of type "
                                   f"{type(f).__name__} takes no input (it has no history)")
             if x is None:
                 from pipeline.dynamics.forces.loads import history_value
 
-                x = history_value(f.history, t0, name)
+                x = history_value(getattr(f, field_), t0, name)
             held[name] = _HeldValue(x)
         else:
             raise ConfigError(f"Simulator: input {name!r}: expected the name of a force "
                               f"element {sorted(forces)} or a driven coordinate "
                               f"{sorted(drivers)}")
     for f in system.forces:
-        new_forces.append(replace(f, history=held[f.name]) if f.name in held else f)
+        new_forces.append(replace(f, **{getattr(f, "HISTORY", "history"): held[f.name]})
+                          if f.name in held else f)
     return replace(system, forces=tuple(new_forces), drivers=drivers), held

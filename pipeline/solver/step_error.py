@@ -26,10 +26,13 @@ from pipeline.solver.result import SimulationResult
 
 
 def fixed_step_error(r: SimulationResult, coarse: SimulationResult, U: np.ndarray,
-                     rtol: float, atol: float, unit: np.ndarray, modal_index=()) -> dict:
+                     rtol: float, atol: float, unit: np.ndarray, modal_index=(),
+                     state_scales=None) -> dict:
     """Estimate of the error of the fixed-step run ``r`` from ``coarse``, the same run at
     twice the step, compared at their common outputs (the integrated coordinates U;
-    ``modal_index``: each link's modal coordinates, ``Mechanism.modal_index``).
+    ``modal_index``: each link's modal coordinates, ``Mechanism.modal_index``), and the
+    force elements' own states (``r.states``; their tolerance: atol times
+    ``state_scales`` (nz,) plus rtol times their largest magnitude).
 
     Returns
     -------
@@ -43,7 +46,15 @@ def fixed_step_error(r: SimulationResult, coarse: SimulationResult, U: np.ndarra
         return {"error_unavailable": f"the run at twice the step failed: {coarse.message}"}
     if k == 0 or not np.allclose(r.t[:k], coarse.t[:k]):
         return {"error_unavailable": "the run at twice the step has other output times"}
-    return scaled_error(r, np.abs(r.q[:k] - coarse.q[:k]), U, rtol, atol, unit, modal_index)
+    out = scaled_error(r, np.abs(r.q[:k] - coarse.q[:k]), U, rtol, atol, unit, modal_index)
+    if r.states.size and state_scales is not None:
+        tol = atol * np.asarray(state_scales) + rtol * np.abs(r.states).max(axis=0)
+        scaled = np.abs(r.states[:k] - coarse.states[:k]) / tol
+        i, j = np.unravel_index(int(np.argmax(scaled)), scaled.shape)
+        if not scaled[i, j] <= out["error_ratio"]:  # NaN too
+            out = {"error_ratio": float(scaled[i, j]), "error_coordinate": r.state_names[j],
+                   "error_time": float(r.t[i])}
+    return out
 
 
 def tolerance(size: np.ndarray, U: np.ndarray, rtol: float, atol: float, unit: np.ndarray,

@@ -38,6 +38,8 @@ class AnalysisResult:
     forces : name -> (T,) actuator (driver/held coordinate) force, N or N m.
     energies : name -> (T,) J (dynamic runs).
     extra : further arrays (closure_residual, frequencies_hz, damping_ratios, M, K, C, ...).
+    states : {"<element>.<state>": (unit, (T,) values)} of the force elements' own states
+        (a hydraulic cylinder's pressures; dynamic analyses).
     timings : seconds ("total").
     """
 
@@ -55,6 +57,7 @@ class AnalysisResult:
     energies: dict = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
     timings: dict = field(default_factory=dict)
+    states: dict = field(default_factory=dict)
     verdict: str = ""
     warnings: tuple = ()
 
@@ -198,9 +201,17 @@ def run_dynamic(m: Machine, a, path) -> dict:
         "forces": forces,
         "energies": dict(r.energies),
         "extra": extra,
+        "states": state_histories(system, r),
         "verdict": r.verdict,
         "warnings": tuple(r.warnings),
     }
+
+
+def state_histories(system, r) -> dict:
+    """{"<element>.<state>": (unit, (T,) values)} of a run's force-element states."""
+    units = [u for f, _ in system.state_slices for u in f.STATE_UNITS]
+    return {name: (unit, r.states[:, i])
+            for i, (name, unit) in enumerate(zip(r.state_names, units))}
 
 
 def _released(m: Machine, loads, path):

@@ -341,9 +341,9 @@ def _element_kwargs(wf: Workflow, mech, i: int, f) -> dict:
             kw[key] = (link, frame)
     if "coordinate" in kw:
         _coordinate(wf, mech, str(kw["coordinate"]), "forces", i, "coordinate")
-    if isinstance(kw.get("history"), dict):
-        kw["history"] = driver_from_dict(kw["history"], wf.where("forces", i, "history"),
-                                         wf.base_dir)
+    field = getattr(FORCES.get(f.type), "HISTORY", "history")  # a valve's is "command"
+    if isinstance(kw.get(field), dict):
+        kw[field] = driver_from_dict(kw[field], wf.where("forces", i, field), wf.base_dir)
     return kw
 
 

@@ -47,6 +47,8 @@ def export_csv(path: Path, r, mech, markers) -> None:
                     cols[f"reaction:{joint}.{what}{ax}_{unit.replace(' ', '')}"] = V[:, c]
     for name, e in r.energies.items():
         cols[f"energy:{name}_J"] = e
+    for name, (unit, x) in r.states.items():
+        cols[f"state:{name}_{unit}"] = x
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(list(cols))
@@ -72,6 +74,8 @@ def export_npz(path: Path, r) -> None:
         arrays[f"force:{k}"] = np.asarray(v)
     for k, v in r.energies.items():
         arrays[f"energy:{k}"] = np.asarray(v)
+    for k, (_, v) in r.states.items():
+        arrays[f"state:{k}"] = np.asarray(v)
     for k, v in r.extra.items():
         a = np.asarray(v) if not isinstance(v, tuple) else None
         if a is not None and a.dtype != object:

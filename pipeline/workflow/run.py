@@ -95,7 +95,17 @@ def check_outputs(wf: Workflow, m: Machine) -> None:
     """Markers of the analyses and series of the plots and studies must exist in the built
     machine (and suit their analysis type): checked before any analysis runs."""
     mech = m.mechanism
+    stateful = [f.name for f, _ in m.system.state_slices]
     for i, a in enumerate(wf.spec.analyses):
+        if stateful and a.type != "kinematic" and not (
+                a.type == "dynamic" and a.method == "generalized_alpha" and a.start == "initial"):
+            what = a.type if a.type != "dynamic" else (
+                f"dynamic, method {a.method}" if a.method != "generalized_alpha"
+                else "dynamic from a static start")
+            raise wf.error("analyses", i, "type", msg=(
+                f"force element(s) {stateful} have states of their own (hydraulic "
+                f"pressures) that only a dynamic analysis by method generalized_alpha from "
+                f"its initial state integrates; this one is {what}"))
         for k, marker in enumerate(a.markers):
             link, _, frame = marker.partition(".")
             frames = [f.name for f in mech.links[mech.link_index(link)].frames] \
@@ -110,7 +120,8 @@ def check_outputs(wf: Workflow, m: Machine) -> None:
     for i, p in enumerate(wf.spec.outputs.plots):
         for s in ([p.x] if p.x != "time" else []) + list(p.series):
             try:
-                check_series(s, m.mechanism, types[p.analysis], m.parts)
+                check_series(s, m.mechanism, types[p.analysis], m.parts,
+                             m.system.state_names)
             except ConfigError as exc:
                 raise wf.error("outputs", "plots", i, msg=str(exc)) from None
     for i, c in enumerate(wf.spec.outputs.convergence):
@@ -124,7 +135,7 @@ def check_outputs(wf: Workflow, m: Machine) -> None:
                            msg=f"expected one of the cases {labels}, got {c.reference!r}")
         for s in c.series:
             try:
-                check_series(s, m.mechanism, a.type, m.parts)
+                check_series(s, m.mechanism, a.type, m.parts, m.system.state_names)
             except ConfigError as exc:
                 raise wf.error("outputs", "convergence", i, msg=str(exc)) from None
 

@@ -13,6 +13,8 @@ deflection:l.f:y@link    x, y, z in the body axes of ``link`` (a
 energy:total             kinetic, gravity, elastic, forces, dissipated,  J
                          driver_work, total (dynamic runs)
 driver_force:LCYL.d      force a driver/held coordinate applies          N, N m
+state:boom_cyl.p_a       a force element's own state (a hydraulic        Pa
+                         cylinder's chamber pressure; dynamic runs)
 reaction:J1:fy           joint reaction on the child link at the joint   N, N m
                          point, ground axes (fx fy fz mx my mz, force,
                          moment: norms; kinetostatic with reactions)
@@ -36,7 +38,7 @@ from pipeline.kinematics import evaluate_tree
 from pipeline.kinematics.poses import step_local
 
 KINDS = ("time", "q", "qd", "qdd", "marker", "deflection", "energy", "driver_force",
-         "reaction", "stress", "frequency")
+         "reaction", "stress", "frequency", "state")
 SOLID_STRESS = ("von_mises", "s1", "s2", "s3", *VOIGT)
 BEAM_STRESS = RESULTANTS
 REACTION_COMPONENTS = ("fx", "fy", "fz", "mx", "my", "mz", "force", "moment")
@@ -153,6 +155,12 @@ def series(result, mech, spec: str, parts=None) -> Series:
         return Series(np.asarray(result.forces[rest]), f"{rest} actuator force", unit)
     if kind == "reaction":
         return reaction_series(result, spec)
+    if kind == "state":
+        if rest not in result.states:
+            raise ConfigError(f"series {spec!r}: analysis '{result.name}' has element states "
+                              f"{sorted(result.states)}")
+        unit, x = result.states[rest]
+        return Series(np.asarray(x), rest, unit)
     if kind == "stress":
         return stress_series(result, mech, parts or {}, spec)
     f = result.extra.get("frequencies_hz")
@@ -247,7 +255,7 @@ def reaction_series(result, spec: str) -> Series:
     return Series(v, f"{joint} reaction {comp}", "N" if comp[0] == "f" else "N m")
 
 
-def check_series(spec: str, mech, analysis_type: str, parts=None) -> None:
+def check_series(spec: str, mech, analysis_type: str, parts=None, states=None) -> None:
     """Fail early (before any analysis runs) on a series that cannot exist.
 
     Raises
@@ -276,6 +284,11 @@ def check_series(spec: str, mech, analysis_type: str, parts=None) -> None:
                               "stress histories")
     if kind == "energy" and analysis_type != "dynamic":
         raise ConfigError(f"series {spec!r}: only dynamic analyses have energies")
+    if kind == "state" and analysis_type != "dynamic":
+        raise ConfigError(f"series {spec!r}: only dynamic analyses have element states")
+    if kind == "state" and states is not None and rest not in states:
+        raise ConfigError(f"series {spec!r}: expected a force element's state, one of "
+                          f"{list(states)}")
     if kind == "frequency" and analysis_type != "linearised":
         raise ConfigError(f"series {spec!r}: only linearised analyses have frequencies")
     if kind == "reaction":

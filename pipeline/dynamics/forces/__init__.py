@@ -4,6 +4,7 @@
 """
 
 from pipeline.dynamics.forces.base import ForceElement, MarkerPoint, marker_point, marker_pose
+from pipeline.dynamics.forces.hydraulics import HydraulicCylinder
 from pipeline.dynamics.forces.loads import (
                                             FollowerForce,
                                             ForceCylinder,
@@ -25,8 +26,10 @@ FORCES: dict[str, type[ForceElement]] = {
     "torque": Torque,
     "joint_force": JointForce,
     "force_cylinder": ForceCylinder,
+    "hydraulic_cylinder": HydraulicCylinder,
 }
 
-__all__ = ["FORCES", "FollowerForce", "ForceCylinder", "ForceElement", "JointForce",
+__all__ = ["FORCES", "FollowerForce", "ForceCylinder", "ForceElement", "HydraulicCylinder",
+           "JointForce",
            "JointSpringDamper", "LineForce", "MarkerPoint", "PointForce",
            "SpringDamper", "TableSpringDamper", "Torque", "marker_point", "marker_pose"]

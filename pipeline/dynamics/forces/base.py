@@ -26,6 +26,17 @@ Contract of a :class:`ForceElement` subclass (thesis eqs. 4.148-4.174, DESIGN §
    return no loads (their force is transmitted through the joint).
 6. Bad descriptions raise ConfigError naming the element and the field in
    ``validate(system)`` (called by the analyses before they start).
+7. States. An element may carry first-order states of its own (a hydraulic chamber's
+   pressure), named by ``STATES`` (the run reports them as ``<element>.<state>``), with
+   ``initial_states()``, ``state_scales()`` (the size of a meaningful change: Newton's and
+   the error estimate's units) and ``state_rates(system, tree, q, qd, t, z)``; its force
+   methods then take its states ``z`` as a last argument. Only the transient
+   generalised-alpha run integrates states (in the same step as the motion); an analysis
+   that does not carry them (statics, linearisation, ...) gets a ConfigError naming the
+   element from ``own_states``.
+8. ``HISTORY`` names the field holding the element's time history (``history`` by
+   default; a hydraulic cylinder's valve ``command``): the compiled step evaluates it
+   once per step, and a stepping API's input by the element's name replaces it.
 
 Subclasses implement ``_force(system, tree, q, qd, t)``; the public methods
 check the shapes once. The helpers :func:`marker_pose`, :func:`marker_point`
@@ -151,16 +162,45 @@ class ForceElement:
 
     #: True when Q = -dV/dq holds for the element's ``potential_energy``.
     conservative: ClassVar[bool] = False
+    #: names of the element's own states (contract rule 7) and their units; none by default
+    STATES: ClassVar[tuple[str, ...]] = ()
+    STATE_UNITS: ClassVar[tuple[str, ...]] = ()
+    #: the field holding the element's time history (contract rule 8)
+    HISTORY: ClassVar[str] = "history"
     name: str
+
+    def initial_states(self) -> np.ndarray:
+        """(k,) the states at the start of a run (k = len(STATES))."""
+        return np.zeros(0)
+
+    def state_scales(self) -> np.ndarray:
+        """(k,) the size of a meaningful change of each state, in its unit."""
+        return np.ones(len(self.STATES))
+
+    def own_states(self, z) -> np.ndarray:
+        """The element's states z (k,) as an array; ConfigError where the analysis asking
+        has none to give (contract rule 7)."""
+        if z is None:
+            raise ConfigError(
+                f"force element '{self.name}' ({type(self).__name__}) has states of its own "
+                f"({', '.join(self.STATES)}): only a transient run by generalised-alpha "
+                f"integrates them; this analysis cannot use it")
+        z = np.asarray(z, dtype=float)
+        if z.shape != (len(self.STATES),):
+            raise ConfigError(f"force element '{self.name}': states: expected "
+                              f"{len(self.STATES)} values, got shape {z.shape}")
+        return z
 
     def validate(self, system) -> None:
         """Raise ConfigError if the element does not fit ``system``."""
 
-    def generalized_force(self, system, tree, q, qd, t: float) -> np.ndarray:
-        """(n,) Q by virtual work at (q, qd, t); units N or N m per coordinate unit."""
+    def generalized_force(self, system, tree, q, qd, t: float, z=None) -> np.ndarray:
+        """(n,) Q by virtual work at (q, qd, t) (and the element's states z, rule 7);
+        units N or N m per coordinate unit."""
         q = np.asarray(q, dtype=float)
         qd = np.zeros_like(q) if qd is None else np.asarray(qd, dtype=float)
-        Q = np.asarray(self._force(system, tree, q, qd, float(t)), dtype=float)
+        args = (system, tree, q, qd, float(t)) + ((z,) if self.STATES else ())
+        Q = np.asarray(self._force(*args), dtype=float)
         if Q.shape != q.shape:
             raise ConfigError(f"force element '{self.name}': generalized force has shape "
                               f"{Q.shape}, expected {q.shape}")
@@ -170,15 +210,15 @@ class ForceElement:
         """V (J) of the conservative part; 0 for a non-conservative element."""
         return 0.0
 
-    def nonconservative_force(self, system, tree, q, qd, t: float) -> np.ndarray:
+    def nonconservative_force(self, system, tree, q, qd, t: float, z=None) -> np.ndarray:
         """(n,) part of Q that is not -dV/dq (all of Q for a non-conservative element)."""
         if self.conservative:
             return np.zeros(len(np.asarray(q)))
-        return self.generalized_force(system, tree, q, qd, t)
+        return self.generalized_force(system, tree, q, qd, t, z)
 
-    def power(self, system, tree, q, qd, t: float) -> float:
+    def power(self, system, tree, q, qd, t: float, z=None) -> float:
         """Power delivered to the system, W (Q . qd)."""
-        return float(self.generalized_force(system, tree, q, qd, t) @ np.asarray(qd, float))
+        return float(self.generalized_force(system, tree, q, qd, t, z) @ np.asarray(qd, float))
 
     def loads(self, system, tree, q, qd, t: float) -> tuple[Load, ...]:
         """Physical loads (ground axes) at (q, qd, t); see the contract, rule 5."""

@@ -4,8 +4,9 @@ dynamics.forces.markers.ForceData` and evaluated by the kernels their own module
 Every built-in element class declares its ``KIND`` and ``pack(mech, markers)`` (its rows of
 the flat data) next to its numpy methods, and the module defines its compiled kernels;
 :data:`KERNELS` names them per kind, and the two dispatchers below call them. A new element
-kind adds its class with ``KIND``, ``pack`` and its two kernels in its module, and one
-branch in each dispatcher (numba calls compiled functions only by name);
+kind adds its class with ``KIND``, ``pack`` and its two kernels in its module (three with
+states of its own: their rates), and one branch in each dispatcher (numba calls compiled
+functions only by name);
 ``tests/solver/test_compiled_step.py`` fails for an element class without them. An
 element without a compiled form (a user's own class) runs on the numpy step, and the run
 says so.
@@ -17,13 +18,14 @@ import numpy as np
 from numba import njit
 
 from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
+from pipeline.dynamics.forces import hydraulics as H
 from pipeline.dynamics.forces import loads as L
 from pipeline.dynamics.forces import springs as S
 from pipeline.dynamics.forces.loads import history_value
 from pipeline.dynamics.forces.markers import ForceData, MarkerTable
 
 __all__ = ["KERNELS", "compile_forces", "force_factors", "generalized_forces", "potential",
-           "uncompiled"]
+           "state_rates", "uncompiled"]
 
 JOINT_SPRING = S.JointSpringDamper.KIND
 COORDINATE_FORCE = L.JointForce.KIND
@@ -33,8 +35,11 @@ TABLE_SPRING = S.TableSpringDamper.KIND
 FOLLOWER_FORCE = L.FollowerForce.KIND
 LINE_FORCE = L.LineForce.KIND
 TORQUE = L.Torque.KIND
+HYDRAULIC_CYLINDER = H.HydraulicCylinder.KIND
 
-#: kind -> (element classes, force kernel, potential kernel)
+#: kind -> (element classes, force kernel, potential kernel[, state-rate kernel]): an
+#: element with states of its own (contract rule 7) has its rates' kernel, and its force
+#: kernel takes the states z after v
 KERNELS = {
     JOINT_SPRING: ((S.JointSpringDamper,), S.joint_spring_force, S.joint_spring_potential),
     COORDINATE_FORCE: ((L.JointForce, L.ForceCylinder), L.coordinate_force,
@@ -45,6 +50,8 @@ KERNELS = {
     FOLLOWER_FORCE: ((L.FollowerForce,), L.follower_force, L.no_potential),
     LINE_FORCE: ((L.LineForce,), L.line_force, L.line_potential),
     TORQUE: ((L.Torque,), L.torque, L.no_potential),
+    HYDRAULIC_CYLINDER: ((H.HydraulicCylinder,), H.cylinder_force, L.no_potential,
+                         H.cylinder_rates),
 }
 
 
@@ -63,6 +70,7 @@ def compile_forces(system) -> tuple[ForceData, tuple] | None:
     rows = 0
     if uncompiled(system.forces):
         return None  # a user's element: the numpy step
+    offsets = {id(f): sl.start for f, sl in system.state_slices}
     for f in system.forces:
         i, p, table = f.pack(mech, markers)
         if table is not None:
@@ -70,14 +78,17 @@ def compile_forces(system) -> tuple[ForceData, tuple] | None:
             tables.append(np.asarray(table, dtype=float))
             rows += len(table)
         kinds.append(type(f).KIND)
-        ints.append(i)
-        pars.append(p)
+        ints.append(list(i) + [offsets.get(id(f), -1)])
+        pars.append(list(p))
         cons.append(bool(f.conservative))
-        hist.append(getattr(f, "history", None))
+        hist.append(getattr(f, f.HISTORY, None))
     table = np.concatenate(tables) if tables else np.zeros((0, 3))
+    width = max([6] + [len(p) for p in pars])
+    par = np.zeros((len(pars), width))
+    for e, p in enumerate(pars):
+        par[e, :len(p)] = p
     data = ForceData(np.array(kinds, dtype=np.int64).reshape(-1),
-                     np.array(ints, dtype=np.int64).reshape(-1, 4),
-                     np.array(pars, dtype=float).reshape(-1, 6),
+                     np.array(ints, dtype=np.int64).reshape(-1, 5), par,
                      np.array(cons, dtype=np.bool_).reshape(-1), table, *markers.arrays())
     return data, tuple(hist)
 
@@ -93,9 +104,10 @@ def force_factors(histories: tuple, times: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def generalized_forces(q, v, A, dA, factor, d, Q, Qnc):
+def generalized_forces(q, v, z, A, dA, factor, d, Q, Qnc):
     """Add every element's generalized force to Q (n,) and its non-conservative part to
-    Qnc (n,) at (q, v) with the link poses A, dA and the history factors (F,)."""
+    Qnc (n,) at (q, v) and the elements' states z (nz,) with the link poses A, dA and the
+    history factors (F,)."""
     for e in range(d.kind.shape[0]):
         kind = d.kind[e]
         if kind == JOINT_SPRING:
@@ -114,6 +126,16 @@ def generalized_forces(q, v, A, dA, factor, d, Q, Qnc):
             L.line_force(e, q, v, A, dA, factor, d, Q, Qnc)
         elif kind == TORQUE:
             L.torque(e, q, v, A, dA, factor, d, Q, Qnc)
+        elif kind == HYDRAULIC_CYLINDER:
+            H.cylinder_force(e, q, v, z, A, dA, factor, d, Q, Qnc)
+
+
+@njit(cache=True)
+def state_rates(q, v, z, A, dA, factor, d, zd):
+    """zd (nz,) = the rates of the elements' own states at (q, v, z)."""
+    for e in range(d.kind.shape[0]):
+        if d.kind[e] == HYDRAULIC_CYLINDER:
+            H.cylinder_rates(e, q, v, z, A, dA, factor, d, zd)
 
 
 @njit(cache=True)

@@ -25,9 +25,10 @@ __all__ = ["ForceData", "MarkerTable", "frame_twist", "line_geometry", "marker_f
            "marker_point"]
 
 #: The force elements of a system, flat (see :func:`pipeline.dynamics.forces.compiled.
-#: compile_forces`): per element its ``kind`` (F,), ``ints`` (F, 4) (markers, coordinate,
-#: table rows), ``par`` (F, 6) (stiffness, free value, damping, force / preload and two
-#: more force components), ``conservative`` (F,); ``table`` (T, 2) force-deflection rows;
+#: compile_forces`): per element its ``kind`` (F,), ``ints`` (F, 5) (markers, coordinate,
+#: table rows, the offset of its own states in z or -1), ``par`` (F, >= 6) (stiffness, free
+#: value, damping, force / preload and two more force components; an element may use
+#: more columns), ``conservative`` (F,); ``table`` (T, 2) force-deflection rows;
 #: per marker its ``link`` (Mk,), ``c0`` (Mk, 3), ``ca`` (Mk, MM, 3), ``idx`` (Mk, MM) and
 #: ``n_modes`` (Mk,) of its link's modal coordinates, ``he`` (Mk, MM, MM, 3) and
 #: ``n_hess`` (Mk,) its second-order translation, ``R0`` (Mk, 3, 3) and ``dR`` (Mk, MM, 3,

@@ -1,0 +1,297 @@
+"""A double-acting hydraulic cylinder fed by a proportional 4/3 directional valve: the
+first force element with states of its own (its two chamber pressures).
+
+Geometry: the cylinder acts along the line from ``marker_a`` (the barrel's mount) to
+``marker_b`` (the rod eye); its length l, stroke s = l - ``length_retracted`` (0 retracted,
+``stroke`` extended) and stroke rate s' = dl/dq . q'. Piston area A_a = pi D^2 / 4 (bore D),
+annulus A_b = A_a - pi d^2 / 4 (rod d). Chamber volumes, each with its dead and hose volume:
+
+    V_a = V_a0 + A_a s,    V_b = V_b0 + A_b (stroke - s).
+
+Pressures (Pa, gauge) p_a, p_b are the element's states, from the oil's compressibility
+(effective bulk modulus beta, hoses and walls included):
+
+    p_a' = beta / V_a (Q_a - A_a s' - Q_L),    p_b' = beta / V_b (Q_b + A_b s' + Q_L),
+
+with the leakage across the piston Q_L = c_L (p_a - p_b). The valve's command u(t) in
+[-1, 1] (``command``; clipped) opens P->A and B->T for u > 0, P->B and A->T for u < 0, each
+metering edge a sharp-edged orifice (zero lap, no spool dynamics yet):
+
+    Q = K |u| f(dp),  K = Q_nom / sqrt(dp_nom),  f(dp) = dp / (dp^2 + dp_L^2)^(1/4),
+
+so f = sign(dp) sqrt(|dp|) (turbulent) above the ``laminar_drop`` dp_L and f ~ dp / sqrt(dp_L)
+(laminar) below it: the regularisation keeps dQ/dp finite at dp = 0, where the square root
+has an infinite slope that stalls Newton. Supply at ``supply_pressure`` (a constant-pressure
+pump), return to ``tank_pressure``.
+
+Force pushing the markers apart: F = p_a A_a - p_b A_b - c s' - F_c tanh(s' / v_s) (seal
+friction, viscous and Coulomb; the Coulomb part smoothed over ``friction_velocity`` v_s).
+The element is non-conservative: its power F s' enters the energy balance as work done on
+the machine (the ``dissipated`` entry, with its sign: negative where the cylinder lifts).
+
+Not modelled (yet): end-stop cushions (a stroke outside [0, stroke] is reported by the
+run's checks), cavitation (pressures below -1 bar gauge are reported), spool dynamics,
+pressure-dependent bulk modulus, relief and load-holding valves.
+
+The scalar physics (flows, pressure rates, force) is written once, as compiled functions
+the numpy methods call too; only the geometry has its numpy and compiled forms, shared
+with every line element (:func:`pipeline.dynamics.forces.markers.line_geometry`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+from numba import njit
+
+from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
+from pipeline.core.errors import ConfigError
+from pipeline.dynamics.forces.base import (
+    ForceElement,
+    check_marker,
+    marker_point,
+    point_load,
+    unit_jacobian,
+)
+from pipeline.dynamics.forces.markers import line_geometry
+
+__all__ = ["HydraulicCylinder", "cylinder_force", "cylinder_rates"]
+
+#: bar: the scale of a pressure state (Newton's and the error estimate's units)
+PRESSURE_UNIT = 1e5
+
+# par columns of the packed element
+_AA, _AB, _L0, _STROKE, _VA0, _VB0, _BETA, _PS, _PT, _KV, _DPL, _LEAK, _VISC, _COUL, _VS = \
+    range(15)
+
+
+@dataclass(frozen=True)
+class HydraulicCylinder(ForceElement):
+    """Hydraulic cylinder with a 4/3 proportional valve (module docstring). SI units:
+    m, m^3, Pa, m^3/s, N, s.
+
+    ``dead_volume_a``/``_b`` default to 10 % of the chamber's full volume (add the
+    hoses'); ``initial_pressures`` (Pa gauge) are the states at the start.
+    """
+
+    name: str
+    marker_a: tuple[str, str]
+    marker_b: tuple[str, str]
+    bore: float
+    rod: float
+    stroke: float
+    length_retracted: float
+    supply_pressure: float
+    nominal_flow: float
+    nominal_drop: float = 35e5
+    tank_pressure: float = 0.0
+    bulk_modulus: float = 1.0e9
+    dead_volume_a: float | None = None
+    dead_volume_b: float | None = None
+    leakage: float = 0.0
+    viscous_friction: float = 0.0
+    coulomb_friction: float = 0.0
+    friction_velocity: float = 1e-3
+    laminar_drop: float = 1e5
+    initial_pressures: tuple = (0.0, 0.0)
+    command: Any = 0.0
+    KIND: ClassVar[int] = 8
+    HISTORY: ClassVar[str] = "command"
+    STATES: ClassVar[tuple[str, ...]] = ("p_a", "p_b")
+    STATE_UNITS: ClassVar[tuple[str, ...]] = ("Pa", "Pa")
+
+    def __post_init__(self):
+        where = f"force element '{self.name}'"
+        for key in ("bore", "stroke", "length_retracted", "bulk_modulus", "nominal_drop",
+                    "friction_velocity", "laminar_drop"):
+            x = getattr(self, key)
+            if isinstance(x, bool) or not isinstance(x, int | float) or not x > 0 \
+                    or not math.isfinite(x):
+                raise ConfigError(f"{where}: {key}: expected a number > 0, got {x!r}")
+        for key in ("rod", "supply_pressure", "nominal_flow", "leakage", "viscous_friction",
+                    "coulomb_friction"):
+            x = getattr(self, key)
+            if isinstance(x, bool) or not isinstance(x, int | float) or not x >= 0 \
+                    or not math.isfinite(x):
+                raise ConfigError(f"{where}: {key}: expected a number >= 0, got {x!r}")
+        if not self.rod < self.bore:
+            raise ConfigError(f"{where}: rod: expected a diameter below the bore "
+                              f"({self.bore} m), got {self.rod}")
+        for key in ("dead_volume_a", "dead_volume_b"):
+            x = getattr(self, key)
+            if x is not None and (isinstance(x, bool) or not isinstance(x, int | float)
+                                  or not x > 0 or not math.isfinite(x)):
+                raise ConfigError(f"{where}: {key}: expected a volume > 0 m^3, got {x!r}")
+        p = self.initial_pressures
+        if not (isinstance(p, tuple | list) and len(p) == 2
+                and all(isinstance(x, int | float) and not isinstance(x, bool)
+                        and math.isfinite(x) for x in p)):
+            raise ConfigError(f"{where}: initial_pressures: expected [p_a, p_b] in Pa, "
+                              f"got {p!r}")
+        if not isinstance(self.tank_pressure, int | float) or \
+                not self.tank_pressure <= self.supply_pressure:
+            raise ConfigError(f"{where}: tank_pressure: expected a number at most the supply "
+                              f"pressure, got {self.tank_pressure!r}")
+
+    # ------------------------------------------------------------------ data
+    @property
+    def areas(self) -> tuple[float, float]:
+        """(piston area A_a, annulus area A_b), m^2."""
+        a = 0.25 * math.pi * self.bore ** 2
+        return a, a - 0.25 * math.pi * self.rod ** 2
+
+    @property
+    def dead_volumes(self) -> tuple[float, float]:
+        """(V_a0, V_b0), m^3."""
+        aa, ab = self.areas
+        return (0.1 * aa * self.stroke if self.dead_volume_a is None else self.dead_volume_a,
+                0.1 * ab * self.stroke if self.dead_volume_b is None else self.dead_volume_b)
+
+    def parameters(self) -> np.ndarray:
+        """(15,) the packed parameters (the ``par`` row of the compiled form)."""
+        aa, ab = self.areas
+        va, vb = self.dead_volumes
+        return np.array([aa, ab, self.length_retracted, self.stroke, va, vb,
+                         self.bulk_modulus, self.supply_pressure, self.tank_pressure,
+                         self.nominal_flow / math.sqrt(self.nominal_drop), self.laminar_drop,
+                         self.leakage, self.viscous_friction, self.coulomb_friction,
+                         self.friction_velocity], dtype=float)
+
+    def oil_stiffness(self, s: float) -> float:
+        """The oil columns' axial stiffness beta (A_a^2 / V_a + A_b^2 / V_b) at stroke s (m),
+        valve closed, N/m."""
+        aa, ab = self.areas
+        va, vb = self.dead_volumes
+        return self.bulk_modulus * (aa ** 2 / (va + aa * s) + ab ** 2 / (vb + ab * (self.stroke - s)))
+
+    def pack(self, mech, markers) -> tuple:
+        """(ints, par, table rows or None) of the compiled form."""
+        return ([markers.add(self.marker_a), markers.add(self.marker_b), 0, 0],
+                list(self.parameters()), None)
+
+    def initial_states(self) -> np.ndarray:
+        return np.array(self.initial_pressures, dtype=float)
+
+    def state_scales(self) -> np.ndarray:
+        return np.full(2, PRESSURE_UNIT)
+
+    def validate(self, system) -> None:
+        check_marker(system, self.marker_a, self.name, "marker_a")
+        check_marker(system, self.marker_b, self.name, "marker_b")
+
+    # ------------------------------------------------------------------ numpy
+    def _line(self, system, tree, q):
+        a = marker_point(system, *self.marker_a, tree, q)
+        b = marker_point(system, *self.marker_b, tree, q)
+        return a, b, unit_jacobian(a, b, self.name)
+
+    def _force(self, system, tree, q, qd, t, z=None):
+        z = self.own_states(z)
+        dl = self._line(system, tree, q)[2][2]
+        return piston_force(self.parameters(), float(z[0]), float(z[1]), float(dl @ qd)) * dl
+
+    def state_rates(self, system, tree, q, qd, t: float, z) -> np.ndarray:
+        """(2,) (p_a', p_b'), Pa/s, at (q, qd, t) and the pressures z (2,)."""
+        from pipeline.dynamics.forces.loads import history_value
+
+        z = self.own_states(z)
+        _, _, (length, _, dl) = self._line(system, tree, q)
+        u = history_value(self.command, t, self.name)
+        out = np.empty(2)
+        pressure_rates(self.parameters(), length, float(dl @ qd), float(z[0]), float(z[1]),
+                       u, out)
+        return out
+
+    def run_checks(self, system, r) -> list[str]:
+        """What the model leaves out and a run ``r`` (SimulationResult) reached: a stroke
+        outside [0, stroke] (no end stops yet) or a pressure below -1 bar gauge
+        (cavitation, not modelled: the pressure goes on falling)."""
+        from pipeline.dynamics.forces.base import marker_pose
+        from pipeline.kinematics import evaluate_tree
+
+        out = []
+        if f"{self.name}.p_a" in r.state_names and r.t.size:
+            i = r.state_names.index(f"{self.name}.p_a")
+            p = r.states[:, i:i + 2]
+            k, j = np.unravel_index(int(np.argmin(p)), p.shape)
+            if p[k, j] < -1e5:
+                out.append(f"hydraulic cylinder '{self.name}': the {'ab'[j]}-side pressure "
+                           f"fell to {p[k, j] / 1e5:.3g} bar gauge at t = {r.t[k]:.4g} s; "
+                           f"oil cavitates near -1 bar, which the model leaves out (feed "
+                           f"that chamber more flow, or move slower)")
+        worst = (0.0, 0.0, 0.0)
+        for k in np.unique(np.linspace(0, r.t.size - 1, min(r.t.size, 200)).astype(int)):
+            tree = evaluate_tree(system.mechanism, r.q[k], derivatives=False)
+            a, b = (marker_pose(system, *m, tree, r.q[k])[:3, 3]
+                    for m in (self.marker_a, self.marker_b))
+            s = float(np.linalg.norm(b - a)) - self.length_retracted
+            beyond = max(-s, s - self.stroke)
+            if beyond > worst[0]:
+                worst = (beyond, s, float(r.t[k]))
+        if worst[0] > 1e-3 * self.stroke:
+            out.append(f"hydraulic cylinder '{self.name}': its stroke reached {worst[1]:.4g} m "
+                       f"at t = {worst[2]:.4g} s, outside [0, {self.stroke:g}] m; the model "
+                       f"has no end stops yet, so the motion beyond is not the machine's")
+        return out
+
+    def loads(self, system, tree, q, qd, t, z=None):
+        z = self.own_states(z)
+        a, b, (_, u, dl) = self._line(system, tree, q)
+        f = piston_force(self.parameters(), float(z[0]), float(z[1]), float(dl @ qd)) * u
+        return (point_load(self.marker_a[0], a.R, -f), point_load(self.marker_b[0], b.R, f))
+
+
+# ---------------------------------------------------------------------- the physics, once
+@njit(cache=True)
+def _orifice(dp, laminar):
+    """dp / (dp^2 + dp_L^2)^(1/4): sign(dp) sqrt|dp| turbulent, linear below dp_L."""
+    return dp / (dp * dp + laminar * laminar) ** 0.25
+
+
+@njit(cache=True)
+def piston_force(par, pa, pb, sd):
+    """Force pushing the markers apart, N, at the pressures pa, pb (Pa) and stroke rate sd
+    (m/s): pressures on the areas less the seal friction."""
+    return pa * par[_AA] - pb * par[_AB] - par[_VISC] * sd \
+        - par[_COUL] * np.tanh(sd / par[_VS])
+
+
+@njit(cache=True)
+def pressure_rates(par, length, sd, pa, pb, u, out):
+    """out (2,) = (p_a', p_b'), Pa/s, at the length (m), stroke rate sd (m/s), pressures
+    pa, pb (Pa) and valve command u (module docstring)."""
+    s = length - par[_L0]
+    u = min(max(u, -1.0), 1.0)
+    up, un = max(u, 0.0), max(-u, 0.0)
+    ps, pt, lam = par[_PS], par[_PT], par[_DPL]
+    qa = par[_KV] * (up * _orifice(ps - pa, lam) - un * _orifice(pa - pt, lam))
+    qb = par[_KV] * (un * _orifice(ps - pb, lam) - up * _orifice(pb - pt, lam))
+    ql = par[_LEAK] * (pa - pb)
+    # a stroke beyond the ends (no end stop yet: the run's checks report it) must not
+    # empty a chamber: its volume is kept above a tenth of its dead volume
+    va = max(par[_VA0] + par[_AA] * s, 0.1 * par[_VA0])
+    vb = max(par[_VB0] + par[_AB] * (par[_STROKE] - s), 0.1 * par[_VB0])
+    out[0] = par[_BETA] / va * (qa - par[_AA] * sd - ql)
+    out[1] = par[_BETA] / vb * (qb + par[_AB] * sd + ql)
+
+
+@njit(cache=True)
+def cylinder_force(e, q, v, z, A, dA, factor, d, Q, Qnc):
+    _, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
+    o = d.ints[e, 4]
+    f = piston_force(d.par[e], z[o], z[o + 1], dl @ v)
+    for i in range(q.shape[0]):
+        Q[i] += f * dl[i]
+        Qnc[i] += f * dl[i]
+
+
+@njit(cache=True)
+def cylinder_rates(e, q, v, z, A, dA, factor, d, zd):
+    length, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
+    o = d.ints[e, 4]
+    out = np.empty(2)
+    pressure_rates(d.par[e], length, dl @ v, z[o], z[o + 1], factor[e], out)
+    zd[o], zd[o + 1] = out[0], out[1]

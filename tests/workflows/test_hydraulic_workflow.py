@@ -1,0 +1,103 @@
+"""A hydraulic cylinder written in a workflow: the same run as the Python API's, its chamber
+pressures in the exports and plots (``state:`` series), a misspelt state named before any
+analysis runs, and analyses that cannot carry the pressures refused at their line."""
+
+from __future__ import annotations
+
+import csv
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "solver"))
+from test_hydraulic_cylinder import PA0, PB0, S0, _lift
+
+from pipeline.core.errors import ConfigError
+from pipeline.kinematics.drivers import SmoothStep
+from pipeline.solver import simulate
+from pipeline.workflow import run_workflow
+
+LIFT = f"""\
+name: lift
+gravity: [0, 0, -9.81]
+links:
+  ground:
+    type: ground
+    frames:
+      rail: {{origin: [0, 0, 0]}}
+      mount: {{origin: [0, 0, -1.0]}}
+  mass:
+    type: rigid
+    mass: 500.0
+    com: [0, 0, 0]
+    inertia: [1, 1, 1, 0, 0, 0]
+    frames: {{eye: {{origin: [0, 0, 0]}}}}
+joints:
+  - {{name: slide, type: prismatic, parent: ground.rail, child: mass.eye, initial: [{S0}]}}
+forces:
+  - name: lift
+    type: hydraulic_cylinder
+    marker_a: ground.mount
+    marker_b: mass.eye
+    bore: 0.08
+    rod: 0.04
+    stroke: 0.5
+    length_retracted: 1.0
+    supply_pressure: 100.0e5
+    nominal_flow: 1.0e-3
+    initial_pressures: [{PA0}, {PB0}]
+    command: {{type: smooth_step, t0: 0.0, t1: 0.2, v0: 0.0, v1: 0.6}}
+analyses:
+  - name: raise
+    type: dynamic
+    t_end: 0.4
+    outputs: 41
+    method: generalized_alpha
+    step: 5.0e-4
+    rtol: 1.0e-5
+    atol: 1.0e-8
+outputs:
+  plots:
+    - {{name: pressures, analysis: raise, series: ["state:lift.p_a", "state:lift.p_b"]}}
+  exports: {{csv: true, npz: true}}
+"""
+
+
+def _write(tmp_path, text=LIFT) -> Path:
+    p = tmp_path / "lift.yaml"
+    p.write_text(text)
+    return p
+
+
+def test_the_workflow_runs_the_cylinder_as_the_python_api_does(tmp_path):
+    res = run_workflow(_write(tmp_path), out_root=tmp_path / "out")
+    r = res.result("raise", "")
+    assert r.verdict == "ok", r.warnings
+    system, _ = _lift(SmoothStep(0.0, 0.2, 0.0, 0.6))
+    ref = simulate(system, np.array([S0]), np.zeros(1), (0.0, 0.4), np.linspace(0, 0.4, 41),
+                   method="generalized_alpha", step=5e-4, rtol=1e-5, atol=1e-8,
+                   progress=False)
+    assert np.abs(r.q - ref.q).max() < 1e-12
+    unit, pa = r.states["lift.p_a"]
+    assert unit == "Pa" and np.abs(pa - ref.state("lift.p_a")).max() < 1e-6
+    rows = list(csv.DictReader((res.out_dir / "raise.csv").open()))
+    assert float(rows[-1]["state:lift.p_b_Pa"]) == pytest.approx(ref.state("lift.p_b")[-1])
+    assert (res.out_dir / "pressures.png").stat().st_size > 0
+    assert "state:lift.p_a" in np.load(res.out_dir / "raise.npz").files
+
+
+def test_a_misspelt_state_is_named_before_anything_runs(tmp_path):
+    bad = LIFT.replace('"state:lift.p_b"', '"state:lift.p_c"')
+    with pytest.raises(ConfigError, match=r"outputs\.plots\[0\].*state:lift\.p_c.*'lift\.p_a'"):
+        run_workflow(_write(tmp_path, bad), out_root=tmp_path / "out")
+
+
+def test_a_static_analysis_cannot_carry_the_pressures(tmp_path):
+    text = LIFT.replace("  - name: raise\n    type: dynamic",
+                        "  - name: hold\n    type: static\n  - name: raise\n    type: dynamic")
+    with pytest.raises(ConfigError, match=r"lift\.yaml:\d+: analyses\[0\]\.type: force "
+                                          r"element\(s\) \['lift'\] have states.*this one is "
+                                          r"static"):
+        run_workflow(_write(tmp_path, text), out_root=tmp_path / "out", outputs=False)
