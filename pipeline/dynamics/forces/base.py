@@ -54,7 +54,7 @@ import numpy as np
 from pipeline.core.errors import ConfigError
 from pipeline.kinematics.poses import step_local, step_value
 
-__all__ = ["ForceElement", "Load", "MarkerPoint", "check_coordinate", "check_marker", "marker_point",
+__all__ = ["ForceElement", "LineElement", "Load", "MarkerPoint", "check_coordinate", "check_marker", "marker_point",
            "marker_pose", "marker_twist", "unit_jacobian"]
 
 
@@ -226,3 +226,27 @@ class ForceElement:
 
     def _force(self, system, tree, q, qd, t):  # pragma: no cover - abstract
         raise NotImplementedError
+
+
+class LineElement(ForceElement):
+    """Base of the elements acting along the line from ``marker_a`` to ``marker_b`` (a
+    spring-damper, a line force, a hydraulic cylinder): their validation and geometry."""
+
+    marker_a: tuple[str, str]
+    marker_b: tuple[str, str]
+
+    def validate(self, system) -> None:
+        check_marker(system, self.marker_a, self.name, "marker_a")
+        check_marker(system, self.marker_b, self.name, "marker_b")
+
+    def line(self, system, tree, q):
+        """(the two MarkerPoints a, b, the length l (m), the unit vector u (3,) from a to b,
+        dl/dq (n,)) at q (tree: TreeState at q with dA)."""
+        a = marker_point(system, *self.marker_a, tree, q)
+        b = marker_point(system, *self.marker_b, tree, q)
+        return (a, b, *unit_jacobian(a, b, self.name))
+
+    def line_loads(self, system, tree, q, f: float) -> tuple[Load, Load]:
+        """The loads of a force f (N) pushing the markers apart (f < 0: a tension)."""
+        a, b, _, u, _ = self.line(system, tree, q)
+        return (point_load(self.marker_a[0], a.R, -f * u), point_load(self.marker_b[0], b.R, f * u))

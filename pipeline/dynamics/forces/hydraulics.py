@@ -49,13 +49,7 @@ from numba import njit
 
 from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
 from pipeline.core.errors import ConfigError
-from pipeline.dynamics.forces.base import (
-    ForceElement,
-    check_marker,
-    marker_point,
-    point_load,
-    unit_jacobian,
-)
+from pipeline.dynamics.forces.base import LineElement
 from pipeline.dynamics.forces.markers import line_geometry
 
 __all__ = ["HydraulicCylinder", "cylinder_force", "cylinder_rates"]
@@ -69,7 +63,7 @@ _AA, _AB, _L0, _STROKE, _VA0, _VB0, _BETA, _PS, _PT, _KV, _DPL, _LEAK, _VISC, _C
 
 
 @dataclass(frozen=True)
-class HydraulicCylinder(ForceElement):
+class HydraulicCylinder(LineElement):
     """Hydraulic cylinder with a 4/3 proportional valve (module docstring). SI units:
     m, m^3, Pa, m^3/s, N, s.
 
@@ -178,19 +172,10 @@ class HydraulicCylinder(ForceElement):
     def state_scales(self) -> np.ndarray:
         return np.full(2, PRESSURE_UNIT)
 
-    def validate(self, system) -> None:
-        check_marker(system, self.marker_a, self.name, "marker_a")
-        check_marker(system, self.marker_b, self.name, "marker_b")
-
     # ------------------------------------------------------------------ numpy
-    def _line(self, system, tree, q):
-        a = marker_point(system, *self.marker_a, tree, q)
-        b = marker_point(system, *self.marker_b, tree, q)
-        return a, b, unit_jacobian(a, b, self.name)
-
     def _force(self, system, tree, q, qd, t, z=None):
         z = self.own_states(z)
-        dl = self._line(system, tree, q)[2][2]
+        dl = self.line(system, tree, q)[4]
         return piston_force(self.parameters(), float(z[0]), float(z[1]), float(dl @ qd)) * dl
 
     def state_rates(self, system, tree, q, qd, t: float, z) -> np.ndarray:
@@ -198,7 +183,7 @@ class HydraulicCylinder(ForceElement):
         from pipeline.dynamics.forces.loads import history_value
 
         z = self.own_states(z)
-        _, _, (length, _, dl) = self._line(system, tree, q)
+        _, _, length, _, dl = self.line(system, tree, q)
         u = history_value(self.command, t, self.name)
         out = np.empty(2)
         pressure_rates(self.parameters(), length, float(dl @ qd), float(z[0]), float(z[1]),
@@ -239,9 +224,9 @@ class HydraulicCylinder(ForceElement):
 
     def loads(self, system, tree, q, qd, t, z=None):
         z = self.own_states(z)
-        a, b, (_, u, dl) = self._line(system, tree, q)
-        f = piston_force(self.parameters(), float(z[0]), float(z[1]), float(dl @ qd)) * u
-        return (point_load(self.marker_a[0], a.R, -f), point_load(self.marker_b[0], b.R, f))
+        dl = self.line(system, tree, q)[4]
+        f = piston_force(self.parameters(), float(z[0]), float(z[1]), float(dl @ qd))
+        return self.line_loads(system, tree, q, f)
 
 
 # ---------------------------------------------------------------------- the physics, once

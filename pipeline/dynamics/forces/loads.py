@@ -24,13 +24,13 @@ from pipeline.core.errors import ConfigError
 from pipeline.core.validate import validate_array
 from pipeline.dynamics.forces.base import (
     ForceElement,
+    LineElement,
     Load,
     check_coordinate,
     check_marker,
     marker_point,
     marker_twist,
     point_load,
-    unit_jacobian,
 )
 from pipeline.dynamics.forces.markers import (
     frame_twist,
@@ -132,7 +132,7 @@ class FollowerForce(PointForce):
 
 
 @dataclass(frozen=True)
-class LineForce(ForceElement):
+class LineForce(LineElement):
     """Force of magnitude ``force`` (N, positive pushes the markers apart) along the
     line from marker_a to marker_b, equal and opposite on the two markers."""
 
@@ -152,30 +152,18 @@ class LineForce(ForceElement):
     def conservative(self) -> bool:
         return self.history is None
 
-    def validate(self, system) -> None:
-        check_marker(system, self.marker_a, self.name, "marker_a")
-        check_marker(system, self.marker_b, self.name, "marker_b")
-
-    def _line(self, system, tree, q):
-        a = marker_point(system, *self.marker_a, tree, q)
-        b = marker_point(system, *self.marker_b, tree, q)
-        return unit_jacobian(a, b, self.name)
-
     def _force(self, system, tree, q, qd, t):
         f = history_value(self.history, t, self.name) * float(self.force)
-        return f * self._line(system, tree, q)[2]
+        return f * self.line(system, tree, q)[4]
 
     def loads(self, system, tree, q, qd, t):
-        a = marker_point(system, *self.marker_a, tree, q)
-        b = marker_point(system, *self.marker_b, tree, q)
-        u = unit_jacobian(a, b, self.name)[1]
-        f = history_value(self.history, t, self.name) * float(self.force) * u
-        return (point_load(self.marker_a[0], a.R, -f), point_load(self.marker_b[0], b.R, f))
+        f = history_value(self.history, t, self.name) * float(self.force)
+        return self.line_loads(system, tree, q, f)
 
     def potential_energy(self, system, tree, q) -> float:
         if not self.conservative:
             return 0.0
-        return -float(self.force) * self._line(system, tree, q)[0]
+        return -float(self.force) * self.line(system, tree, q)[2]
 
 
 @dataclass(frozen=True)

@@ -25,11 +25,8 @@ from pipeline.core.errors import ConfigError
 from pipeline.core.validate import validate_array
 from pipeline.dynamics.forces.base import (
     ForceElement,
+    LineElement,
     check_coordinate,
-    check_marker,
-    marker_point,
-    point_load,
-    unit_jacobian,
 )
 from pipeline.dynamics.forces.markers import line_geometry
 
@@ -45,7 +42,7 @@ def _nonneg(value, name: str, field: str) -> float:
 
 
 @dataclass(frozen=True)
-class SpringDamper(ForceElement):
+class SpringDamper(LineElement):
     """Linear spring (N/m, free length m, preload N) and damper (N s/m) between two markers."""
 
     name: str
@@ -79,10 +76,6 @@ class SpringDamper(ForceElement):
         _, dl = self._geometry(system, tree, np.asarray(q, float))
         return -self.damping * float(dl @ np.asarray(qd, float)) * dl
 
-    def validate(self, system) -> None:
-        check_marker(system, self.marker_a, self.name, "marker_a")
-        check_marker(system, self.marker_b, self.name, "marker_b")
-
     def elastic(self, length: float) -> float:
         """Elastic tension (N) at length (m)."""
         return self.preload + self.stiffness * (length - self.free_length)
@@ -97,9 +90,7 @@ class SpringDamper(ForceElement):
         return self.elastic(length) + self.damping * rate
 
     def _geometry(self, system, tree, q):
-        a = marker_point(system, *self.marker_a, tree, q)
-        b = marker_point(system, *self.marker_b, tree, q)
-        length, _, dl = unit_jacobian(a, b, self.name)
+        _, _, length, _, dl = self.line(system, tree, q)
         return length, dl
 
     def _force(self, system, tree, q, qd, t):
@@ -110,11 +101,8 @@ class SpringDamper(ForceElement):
         return self.energy(self._geometry(system, tree, q)[0])
 
     def loads(self, system, tree, q, qd, t):
-        a = marker_point(system, *self.marker_a, tree, q)
-        b = marker_point(system, *self.marker_b, tree, q)
-        length, u, dl = unit_jacobian(a, b, self.name)
-        f = self.tension(length, float(dl @ qd)) * u  # tension pulls a toward b
-        return (point_load(self.marker_a[0], a.R, f), point_load(self.marker_b[0], b.R, -f))
+        length, dl = self._geometry(system, tree, q)
+        return self.line_loads(system, tree, q, -self.tension(length, float(dl @ qd)))
 
 
 @dataclass(frozen=True)
