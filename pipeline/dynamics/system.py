@@ -172,10 +172,17 @@ class System:
         """Names ``<element>.<state>`` of the elements' states z, in order."""
         return tuple(f"{f.name}.{x}" for f, _ in self.state_slices for x in f.STATES)
 
-    def initial_states(self) -> np.ndarray:
-        """(nz,) every element's states at the start of a run."""
+    def initial_states(self, q=None, t: float = 0.0) -> np.ndarray:
+        """(nz,) every element's states at the start of a run at rest at q (n,): those an
+        element leaves open (NaN: a hydraulic cylinder's ``hold`` pressure) are the ones
+        that hold the machine there (:func:`pipeline.dynamics.held_states.held_states`)."""
         parts = [np.asarray(f.initial_states(), dtype=float) for f, _ in self.state_slices]
-        return np.concatenate(parts) if parts else np.zeros(0)
+        z = np.concatenate(parts) if parts else np.zeros(0)
+        if np.isnan(z).any():
+            from pipeline.dynamics.held_states import held_states
+
+            z = held_states(self, q, t, z)
+        return z
 
     def state_scales(self) -> np.ndarray:
         """(nz,) the size of a meaningful change of each state."""

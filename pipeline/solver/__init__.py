@@ -138,6 +138,8 @@ def simulate(system, q0, qd0, t_span, t_eval=None, method: str = "DOP853", rtol:
                               "formulation needs a fixed step > 0 s")
     q0, qd0, t0, t1, te = check_arguments(system, q0, qd0, t_span, t_eval, rtol, atol)
     q0, qd0 = consistent_start(system, q0, qd0, t0)
+    if system.state_slices:
+        system.initial_states(q0, t0)  # a held state that cannot hold: ConfigError, now
     budget = {"max_steps": int(max_steps), "max_wall": max_wall}
     if formulation == "dae":
         if second_order:

@@ -37,9 +37,9 @@ class CompiledStepper:
                              closure_tol, jump, eps, *first_order_coefficients(rho_inf)])
         self.unit = data.unit if unit is None else np.asarray(unit, dtype=float)
         self.eps = float(eps)
-        #: the force elements' own states: their start values and scales
-        self.z0, self.zunit = cs.system.initial_states(), cs.system.state_scales()
-        nk = cs.U.size + self.z0.size
+        #: the force elements' own states: their number and scales
+        self.zunit = cs.system.state_scales()
+        nk = cs.U.size + self.zunit.size
         self.S = np.zeros((nk, nk))
         self.sinfo = np.zeros(4)  # h of S (0: none), stale, Jacobians, evaluations
         self.args = (K.kin_tuple(data.kin), K.mass_tuple(data.masses), data.K, data.D,
@@ -58,11 +58,11 @@ class CompiledStepper:
         start values): its accelerations and multipliers (index-1 solve)."""
         cs = self.cs
         self.sinfo[3] += 1
-        if not self.z0.size:
+        if not self.zunit.size:
             st = cs.evaluate(t, q, v)
             qdd, lam = cs.accelerations(st)
             return StepState(t, q.copy(), v.copy(), qdd, qdd.copy(), lam, powers(cs, st, v))
-        z = self.z0.copy() if z is None else np.array(z, dtype=float)
+        z = cs.system.initial_states(q, t) if z is None else np.array(z, dtype=float)
         qdd, lam, zd, pd, pnc = K.start(q, v, z, cs.drive(t)[2], self._factors([t])[0], cs.U,
                                         cs.P, self.eps, *self.args)
         return StepState(t, q.copy(), v.copy(), qdd, qdd.copy(), lam, np.array([pd, pnc]),

@@ -56,8 +56,8 @@ def _lift(command=0.0, **kw):
     cyl = HydraulicCylinder("lift", ("ground", "mount"), ("mass", "body"), bore=BORE,
                             rod=ROD, stroke=STROKE, length_retracted=L0,
                             supply_pressure=PS, nominal_flow=QNOM, nominal_drop=DPNOM,
-                            bulk_modulus=BETA, laminar_drop=DPL,
-                            initial_pressures=(PA0, PB0), command=command, **kw)
+                            command=command, **{"bulk_modulus": BETA, "laminar_drop": DPL,
+                                                "initial_pressures": (PA0, PB0), **kw})
     return System(mech, {"mass": BodyMass.rigid(MASS, [0, 0, 0], np.eye(3))},
                   gravity=[0, 0, -G], forces=(cyl,)), cyl
 
@@ -272,3 +272,65 @@ def test_the_error_estimates_cover_the_pressures():
     a = simulate(system, np.array([S0]), np.zeros(1), (0.0, 0.4), te,
                  method="generalized_alpha", progress=False, rtol=1e-6, atol=1e-8)
     assert a.verdict == "ok" and np.abs(a.states - ref[:, 2:]).max() < 2e-5 * PA0 * 5
+
+
+def test_the_steady_extension_against_a_load_is_the_valves_closed_form():
+    """Valve held at u = 0.5: the mass rises at the speed where the metering edges' flows
+    and the force balance meet, A_a v = K u sqrt(p_s - p_a), A_b v = K u sqrt(p_b - p_t),
+    p_a A_a - p_b A_b = m g + c v, i.e. v^2 (A_a^3 + A_b^3) / (K u)^2 + c v = p_s A_a - m g
+    (sharp-edged orifices: laminar drop 10 Pa; seal friction damps the start's ringing)."""
+    u, c = 0.5, 2e4
+    system, _ = _lift(u, viscous_friction=c, laminar_drop=10.0)
+    te = np.linspace(0.0, 0.3, 31)
+    r = simulate(system, np.array([S0]), np.zeros(1), (0.0, 0.3), te,
+                 method="generalized_alpha", progress=False, rtol=1e-7, atol=1e-9)
+    ku = QNOM / np.sqrt(DPNOM) * u
+    a2 = (AA ** 3 + AB ** 3) / ku ** 2
+    v = (-c + np.sqrt(c * c + 4 * a2 * (PS * AA - MASS * G))) / (2 * a2)
+    assert r.verdict == "ok", r.report
+    assert r.qd[-1, 0] == pytest.approx(v, rel=1e-5), (r.qd[-1, 0], v)
+    pa, pb = r.states[-1]
+    assert pa == pytest.approx(PS - (AA * v / ku) ** 2, rel=1e-5)
+    assert pb == pytest.approx((AB * v / ku) ** 2, rel=1e-4)
+
+
+def test_a_hold_pressure_starts_the_machine_at_rest():
+    """``initial_pressures: [hold, p_b]``: the piston side's pressure is found so that the
+    load rests on the closed valve, (m g + p_b A_b) / A_a by hand; the mass then stays put.
+    On the four-bar (a closed loop) a cylinder from ground to the coupler holds the crank
+    where it starts under gravity: it moves 1e-3 of what it does without the cylinder.
+    (Rigid links: flexible ones start undeformed, as given, and their ringing moves the
+    joints.) A pose the held pressure cannot hold (a free arm swinging on the mass) is
+    named before the run."""
+    system, _ = _lift(0.0, initial_pressures=("hold", PB0))
+    r = _run(system, np.linspace(0.0, 0.2, 21), 1e-3)
+    assert r.states[0, 0] == pytest.approx(PA0, rel=1e-12)
+    assert r.verdict == "ok" and np.abs(r.q[:, 0] - S0).max() < 1e-9
+
+    base = flexible_four_bar(n_modes=0).system
+    q0 = assemble(base.mechanism, base.mechanism.q_initial).q
+    cyl = HydraulicCylinder("c", ("ground", "body"), ("coupler", "B"), bore=0.05, rod=0.03,
+                            stroke=1.5, length_retracted=2.0, supply_pressure=150e5,
+                            nominal_flow=1e-4, initial_pressures=("hold", 5e5))
+    runs = [simulate(System(base.mechanism, base.bodies, base.gravity, forces=f), q0,
+                     np.zeros_like(q0), (0.0, 0.3), np.linspace(0.0, 0.3, 31),
+                     method="generalized_alpha", step=1e-3, progress=False, rtol=1e-4,
+                     atol=1e-6) for f in ((cyl,), ())]
+    moved = [np.abs(r.q[:, 0] - q0[0]).max() for r in runs]
+    assert runs[0].verdict == "ok" and moved[1] > 0.01 and moved[0] < 1e-3 * moved[1], moved
+
+    mech = build_mechanism(
+        [rigid_link("ground", {"mount": _translate(-L0)}), rigid_link("mass"),
+         rigid_link("arm")],
+        [Joint("slide", "prismatic", "ground", "body", "mass", "body", q0=[S0]),
+         Joint("pin", "revolute", "mass", "body", "arm", "body")])
+    cyl = HydraulicCylinder("lift", ("ground", "mount"), ("mass", "body"), bore=BORE,
+                            rod=ROD, stroke=STROKE, length_retracted=L0,
+                            supply_pressure=PS, nominal_flow=QNOM,
+                            initial_pressures=("hold", PB0))
+    s = System(mech, {"mass": BodyMass.rigid(MASS, [0, 0, 0], np.eye(3)),
+                      "arm": BodyMass.rigid(10.0, [0.5, 0, 0], np.eye(3))},
+               gravity=[0, -G, 0], forces=(cyl,))
+    with pytest.raises(ConfigError, match=r"cannot hold the machine at rest.*\['pin\.theta'\]"):
+        simulate(s, np.array([S0, 0.0]), np.zeros(2), (0.0, 0.01), method="generalized_alpha",
+                 step=1e-3, progress=False)

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "solver"))
-from test_hydraulic_cylinder import PA0, PB0, S0, _lift
+from test_hydraulic_cylinder import PB0, S0, _lift
 
 from pipeline.core.errors import ConfigError
 from pipeline.kinematics.drivers import SmoothStep
@@ -47,7 +47,7 @@ forces:
     length_retracted: 1.0
     supply_pressure: 100.0e5
     nominal_flow: 1.0e-3
-    initial_pressures: [{PA0}, {PB0}]
+    initial_pressures: [hold, {PB0}]   # the piston side holds the mass at rest
     command: {{type: smooth_step, t0: 0.0, t1: 0.2, v0: 0.0, v1: 0.6}}
 analyses:
   - name: raise
@@ -56,7 +56,7 @@ analyses:
     outputs: 41
     method: generalized_alpha
     step: 5.0e-4
-    rtol: 1.0e-5
+    rtol: 1.0e-4
     atol: 1.0e-8
 outputs:
   plots:
@@ -77,7 +77,7 @@ def test_the_workflow_runs_the_cylinder_as_the_python_api_does(tmp_path):
     assert r.verdict == "ok", r.warnings
     system, _ = _lift(SmoothStep(0.0, 0.2, 0.0, 0.6))
     ref = simulate(system, np.array([S0]), np.zeros(1), (0.0, 0.4), np.linspace(0, 0.4, 41),
-                   method="generalized_alpha", step=5e-4, rtol=1e-5, atol=1e-8,
+                   method="generalized_alpha", step=5e-4, rtol=1e-4, atol=1e-8,
                    progress=False)
     assert np.abs(r.q - ref.q).max() < 1e-12
     unit, pa = r.states["lift.p_a"]

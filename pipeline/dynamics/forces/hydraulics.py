@@ -68,7 +68,9 @@ class HydraulicCylinder(LineElement):
     m, m^3, Pa, m^3/s, N, s.
 
     ``dead_volume_a``/``_b`` default to 10 % of the chamber's full volume (add the
-    hoses'); ``initial_pressures`` (Pa gauge) are the states at the start.
+    hoses'); ``initial_pressures`` (Pa gauge) are the states at the start, one of them
+    possibly ``"hold"``: the pressure that, with the other, holds the machine at rest
+    where it starts (a loaded boom on a closed valve).
     """
 
     name: str
@@ -120,11 +122,12 @@ class HydraulicCylinder(LineElement):
                                   or not x > 0 or not math.isfinite(x)):
                 raise ConfigError(f"{where}: {key}: expected a volume > 0 m^3, got {x!r}")
         p = self.initial_pressures
-        if not (isinstance(p, tuple | list) and len(p) == 2
-                and all(isinstance(x, int | float) and not isinstance(x, bool)
-                        and math.isfinite(x) for x in p)):
-            raise ConfigError(f"{where}: initial_pressures: expected [p_a, p_b] in Pa, "
-                              f"got {p!r}")
+        if not (isinstance(p, tuple | list) and len(p) == 2 and list(p).count("hold") <= 1
+                and all(x == "hold" or (isinstance(x, int | float) and not isinstance(x, bool)
+                                        and math.isfinite(x)) for x in p)):
+            raise ConfigError(f"{where}: initial_pressures: expected [p_a, p_b] in Pa, one of "
+                              f"them may be 'hold' (found so that the machine starts at "
+                              f"rest), got {p!r}")
         if not isinstance(self.tank_pressure, int | float) or \
                 not self.tank_pressure <= self.supply_pressure:
             raise ConfigError(f"{where}: tank_pressure: expected a number at most the supply "
@@ -167,7 +170,10 @@ class HydraulicCylinder(LineElement):
                 list(self.parameters()), None)
 
     def initial_states(self) -> np.ndarray:
-        return np.array(self.initial_pressures, dtype=float)
+        """(p_a, p_b) at the start, Pa; NaN for a ``hold`` pressure (found at the start so
+        that the machine is at rest: pipeline.dynamics.held_states)."""
+        return np.array([np.nan if x == "hold" else x for x in self.initial_pressures],
+                        dtype=float)
 
     def state_scales(self) -> np.ndarray:
         return np.full(2, PRESSURE_UNIT)
@@ -198,7 +204,9 @@ class HydraulicCylinder(LineElement):
         from pipeline.kinematics import evaluate_tree
 
         out = []
-        if f"{self.name}.p_a" in r.state_names and r.t.size:
+        if not r.t.size:
+            return out
+        if f"{self.name}.p_a" in r.state_names:
             i = r.state_names.index(f"{self.name}.p_a")
             p = r.states[:, i:i + 2]
             k, j = np.unravel_index(int(np.argmin(p)), p.shape)
