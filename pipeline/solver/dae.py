@@ -40,10 +40,12 @@ __all__ = ["run_dae"]
 
 def run_dae(system, q0, qd0, t0, t1, te, *, rtol, atol, step=None, rho_inf=0.8,
             max_step=np.inf, progress=True, max_steps=1_000_000, max_wall=None,
-            jump=0.1, estimate: bool = True) -> SimulationResult:
+            jump=0.1, estimate: bool = True, positions_only: bool = False
+            ) -> SimulationResult:
     """Integrate from a consistent (q0, qd0) (see :func:`pipeline.solver.simulate`); a
     fixed-step run is run again at twice the step to estimate its error (``estimate``,
-    :mod:`pipeline.solver.step_error`)."""
+    :mod:`pipeline.solver.step_error`), recording its positions only
+    (``positions_only``: OutputGrid)."""
     tic = time.perf_counter()
     cs = ConstrainedSystem(system)
     unit = system.mechanism.coordinate_units
@@ -51,7 +53,7 @@ def run_dae(system, q0, qd0, t0, t1, te, *, rtol, atol, step=None, rho_inf=0.8,
     stepper = dae_stepper(cs, rtol, atol, step, rho_inf, jump)
     run.state_gamma = first_order_coefficients(rho_inf)[1]
     q, v = cs.with_drivers(t0, q0, qd0)
-    grid = OutputGrid(cs, te, getattr(stepper, "output", None))
+    grid = OutputGrid(cs, te, getattr(stepper, "output", None), positions_only)
     with progress_counter(te.size, "simulating", progress) as advance:
         _, _, msg = march_guarded(run, stepper, (t0, q, v), np.zeros(2), grid, advance)
     total = time.perf_counter() - tic
@@ -65,7 +67,8 @@ def run_dae(system, q0, qd0, t0, t1, te, *, rtol, atol, step=None, rho_inf=0.8,
         tic = time.perf_counter()
         coarse = run_dae(system, q0, qd0, t0, t1, r.t, rtol=rtol, atol=atol, step=2 * step,
                          rho_inf=rho_inf, max_step=max_step, progress=False, jump=jump,
-                         max_steps=max_steps, max_wall=max_wall, estimate=False)
+                         max_steps=max_steps, max_wall=max_wall, estimate=False,
+                         positions_only=True)
         est = fixed_step_error(r, coarse, cs.U, rtol, atol, unit,
                                system.mechanism.modal_index, system.state_scales())
         est["error_seconds"] = time.perf_counter() - tic

@@ -40,13 +40,18 @@ def hermite(q0, v0, q1, v1, h, s):
 class OutputGrid:
     """The output times ``te`` (s) and the rows recorded so far (``k`` of them)."""
 
-    def __init__(self, cs: ConstrainedSystem, te: np.ndarray, compiled=None):
+    def __init__(self, cs: ConstrainedSystem, te: np.ndarray, compiled=None,
+                 positions_only: bool = False):
         self.cs, self.te, self.k = cs, te, 0
         self.rows = []
         self.seconds = 0.0  # spent recording
         #: ``compiled(t, q, v)`` -> (q, v, qdd, lam, F, energies, residual): the same state
         #: from one compiled call (CompiledStepper.output), or None
         self.compiled = compiled
+        #: record the interpolated q, v (and element states) only: no projection, no
+        #: accelerations, forces or energies (a run made to compare positions, such as a
+        #: fixed step's error estimate, where the full record was half its cost)
+        self.positions_only = positions_only
 
     @property
     def done(self) -> bool:
@@ -82,6 +87,12 @@ class OutputGrid:
             self.seconds += time.perf_counter() - tic
 
     def _record(self, t, q, v, work, z):
+        if self.positions_only:
+            cs = self.cs
+            e = dict.fromkeys(("kinetic", "gravity", "elastic", "forces"), 0.0)
+            self._append(t, np.array(q), np.array(v), np.zeros(cs.n), np.zeros(cs.m),
+                         np.zeros(cs.P.size), e, 0.0, work, z)
+            return
         if self.compiled is not None:
             q, v, qdd, lam, F, e, res = self.compiled(t, q, v, z) if z.size else \
                 self.compiled(t, q, v)
