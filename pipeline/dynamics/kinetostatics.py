@@ -262,27 +262,34 @@ def _joint_axes(system, tree, q, j):
     return Pc[:3, 3], xi.reshape(-1, 6)
 
 
-def _external(system, tree, q, qd, t, W, Q):
-    """Add the force elements' loads to the body wrenches W (L, 6); joint elements to Q."""
+def _external(system, tree, q, qd, t, W, Q, z=None):
+    """Add the force elements' loads to the body wrenches W (L, 6); joint elements to Q
+    (z: the elements' own states, System.state_slices, where the caller has them)."""
     mech = system.mechanism
+    own = {id(f): sl for f, sl in system.state_slices}
     for f in system.forces:
+        args = (system, tree, q, qd, t)
+        if id(f) in own:
+            args += (None if z is None else z[own[id(f)]],)
         if hasattr(f, "coordinate"):
-            Q += f.generalized_force(system, tree, q, qd, t)
+            Q += f.generalized_force(*args)
             continue
-        for ld in f.loads(system, tree, q, qd, t):
+        for ld in f.loads(*args):
             li = mech.link_index(ld.link)
             W[li, :3] += ld.force
             W[li, 3:] += np.cross(ld.point, ld.force) + ld.torque
 
 
-def joint_reactions(system, q, qd, qdd, t: float, actuators: dict[str, float]) -> JointReactions:
+def joint_reactions(system, q, qd, qdd, t: float, actuators: dict[str, float],
+                    z=None) -> JointReactions:
     """Reactions of every joint from Newton-Euler of every moving link.
 
     Unknowns: one wrench per joint; equations: the six balance equations of each
     moving link (loads, gravity, inertia) and, per joint variable, the transmitted
     generalized force (joint force elements + ``actuators[name]``). Least squares
     (minimum norm: components a planar loop leaves indeterminate come out as the
-    smallest ones).
+    smallest ones). ``z``: the force elements' own states at that time (a hydraulic
+    cylinder's pressures; SimulationResult.states), for a system with such elements.
     """
     mech = system.mechanism
     tree = evaluate_tree(mech, q, qd, derivatives=True)
@@ -291,7 +298,7 @@ def joint_reactions(system, q, qd, qdd, t: float, actuators: dict[str, float]) -
     for name, body in system.bodies.items():
         li = mech.link_index(name)
         W[li] += _body_wrench(system, tree, q, qd, qdd, li, body)
-    _external(system, tree, q, qd, t, W, Qj)
+    _external(system, tree, q, qd, t, W, Qj, z)
     for name, value in actuators.items():
         Qj[mech.index(name)] += value
     rows_b = np.zeros((6 * L, 6 * nj))

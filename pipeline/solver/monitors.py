@@ -307,7 +307,8 @@ def _axial_load(system, r: SimulationResult, lim: Limits, samples: int = 50) -> 
     for k in _samples(r, samples, "q", "qd", "qdd"):
         act = dict(zip(driven, np.asarray(r.driver_forces)[k])) if driven else {}
         try:
-            rx = joint_reactions(system, r.q[k], r.qd[k], r.qdd[k], float(r.t[k]), act)
+            rx = joint_reactions(system, r.q[k], r.qd[k], r.qdd[k], float(r.t[k]), act,
+                                 r.states[k] if r.states.size else None)
         except (PipelineError, FloatingPointError, np.linalg.LinAlgError) as exc:
             failed = exc  # a force element that fails there: the run says so itself
             continue

@@ -334,3 +334,26 @@ def test_a_hold_pressure_starts_the_machine_at_rest():
     with pytest.raises(ConfigError, match=r"cannot hold the machine at rest.*\['pin\.theta'\]"):
         simulate(s, np.array([S0, 0.0]), np.zeros(2), (0.0, 0.01), method="generalized_alpha",
                  step=1e-3, progress=False)
+
+
+def test_joint_reactions_carry_the_cylinders_loads():
+    """The four-bar pushed by a cylinder through its opening valve: the joint reactions,
+    from Newton-Euler of every link with the cylinder's loads at the run's pressures,
+    balance each link (residual 1e-9 of the loads), so the checks that read them (the
+    axial-load check) are made on hydraulic machines too."""
+    from pipeline.dynamics.kinetostatics import joint_reactions
+
+    base = flexible_four_bar(n_modes=0).system
+    q0 = assemble(base.mechanism, base.mechanism.q_initial).q
+    cyl = HydraulicCylinder("c", ("ground", "body"), ("coupler", "B"), bore=0.05, rod=0.03,
+                            stroke=1.5, length_retracted=2.0, supply_pressure=150e5,
+                            nominal_flow=3e-4, initial_pressures=("hold", 5e5),
+                            command=SmoothStep(0.0, 0.1, 0.0, 0.3))
+    s = System(base.mechanism, base.bodies, base.gravity, forces=(cyl,))
+    r = simulate(s, q0, np.zeros_like(q0), (0.0, 0.2), np.linspace(0.0, 0.2, 11),
+                 method="generalized_alpha", step=5e-4, progress=False, rtol=1e-4, atol=1e-6)
+    assert r.verdict == "ok" and np.ptp(r.q[:, 0]) > 0.01, r.report
+    for k in (3, 7, 10):
+        rx = joint_reactions(s, r.q[k], r.qd[k], r.qdd[k], float(r.t[k]), {}, r.states[k])
+        scale = np.abs(rx.force).max()
+        assert rx.residual < 1e-9 * scale and scale > 10.0, (rx.residual, scale)
