@@ -50,7 +50,8 @@ def run_dae(system, q0, qd0, t0, t1, te, *, rtol, atol, step=None, rho_inf=0.8,
     cs = ConstrainedSystem(system)
     unit = system.mechanism.coordinate_units
     run = _Run(cs, unit, t0, t1, rtol, atol, step, max_step, max_steps, max_wall, tic)
-    stepper = dae_stepper(cs, rtol, atol, step, rho_inf, jump)
+    # the run at twice the step (positions only) is a check: the run said it already
+    stepper = dae_stepper(cs, rtol, atol, step, rho_inf, jump, warn=not positions_only)
     run.state_gamma = first_order_coefficients(rho_inf)[1]
     q, v = cs.with_drivers(t0, q0, qd0)
     grid = OutputGrid(cs, te, getattr(stepper, "output", None), positions_only)
@@ -76,9 +77,10 @@ def run_dae(system, q0, qd0, t0, t1, te, *, rtol, atol, step=None, rho_inf=0.8,
     return r
 
 
-def dae_stepper(cs: ConstrainedSystem, rtol, atol, step, rho_inf, jump=0.1):
-    """The generalised-alpha stepper of ``cs`` (compiled where the force elements allow)
-    with the Newton tolerances that keep a fixed-step or an adaptive run at its order."""
+def dae_stepper(cs: ConstrainedSystem, rtol, atol, step, rho_inf, jump=0.1, warn=True):
+    """The generalised-alpha stepper of ``cs`` (compiled where the force elements allow;
+    ``warn``: log when not) with the Newton tolerances that keep a fixed-step or an
+    adaptive run at its order."""
     if not cs.system.mechanism.topology.loops:
         jump = np.inf  # no closure, no branch to leave: a stiff mode may move far in a step
     # Newton errors add up over the steps like truncation errors: well below the local
@@ -89,9 +91,9 @@ def dae_stepper(cs: ConstrainedSystem, rtol, atol, step, rho_inf, jump=0.1):
         newton_rtol, newton_atol = min(1e-2 * rtol, 1e-8), min(1e-2 * atol, 1e-10)
     else:
         newton_rtol, newton_atol = 0.1 * rtol, 0.1 * atol
-    return make_stepper(cs, rho_inf=rho_inf, newton_rtol=newton_rtol, newton_atol=newton_atol,
-                        closure_tol=1e-10, unit=cs.system.mechanism.coordinate_units,
-                        jump=jump)
+    return make_stepper(cs, warn, rho_inf=rho_inf, newton_rtol=newton_rtol,
+                        newton_atol=newton_atol, closure_tol=1e-10,
+                        unit=cs.system.mechanism.coordinate_units, jump=jump)
 
 
 def march_guarded(run, stepper, s, work, grid, advance):

@@ -48,12 +48,13 @@ class CompiledDae:
     histories: tuple
 
 
-def compile_dae(system, U: np.ndarray, P: np.ndarray) -> CompiledDae | None:
-    """The flat data of ``system``, or None when a force element has no compiled form."""
+def compile_dae(system, U: np.ndarray, P: np.ndarray, warn: bool = True) -> CompiledDae | None:
+    """The flat data of ``system``, or None when a force element has no compiled form (and
+    the log says so, unless ``warn`` is False: a run that already said it)."""
     mech = system.mechanism
     packed = compile_forces(system)
     if packed is None:
-        logger.warning("force element(s) %s have no compiled form: the generalised-alpha "
+        (logger.warning if warn else logger.debug)("force element(s) %s have no compiled form: the generalised-alpha "
                        "steps run in numpy, about 30x slower (docs/force_elements.md)",
                        uncompiled(system.forces))
         return None

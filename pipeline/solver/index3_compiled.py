@@ -134,10 +134,11 @@ class CompiledStepper:
                             *self.args)
 
 
-def stepper(cs: ConstrainedSystem, **kw):
+def stepper(cs: ConstrainedSystem, warn: bool = True, **kw):
     """A compiled stepper for ``cs`` when its force elements allow one, else the numpy
-    :class:`Index3Stepper` (same interface; it has no element states)."""
-    data = compile_dae(cs.system, cs.U, cs.P)
+    :class:`Index3Stepper` (same interface; it has no element states; ``warn``: log that
+    it is the numpy one)."""
+    data = compile_dae(cs.system, cs.U, cs.P, warn)
     if data is None:
         from pipeline.dynamics.forces.compiled import uncompiled
 

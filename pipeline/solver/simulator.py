@@ -328,7 +328,7 @@ class Simulator:
                        self.rtol, self.atol, other, np.inf, sys.maxsize, None, 0.0)
             run.span = run.stall.span = 1e4 * other
             self._checks[other] = (run, dae_stepper(self._cs, self.rtol, self.atol, other,
-                                                    self.rho_inf))
+                                                    self.rho_inf, warn=False))
         run, stepper = self._checks[other]
         run.t1, run.h, run.nominal = t1, other, other
         grid = OutputGrid(self._cs, np.array([t1]), getattr(stepper, "output", None))
