@@ -418,7 +418,7 @@ def _run(spec, bundle, todo, workers, scheduler, folder, world, finished,
     external one whose workers died) ends the cases left as ``lost``, with that reason,
     instead of waiting for ever."""
     try:
-        from distributed import Client, LocalCluster, wait
+        from distributed import Client, LocalCluster
     except ImportError:
         raise ConfigError("studies need dask.distributed: pip install 'dask[distributed]'") \
             from None
@@ -446,7 +446,7 @@ def _run(spec, bundle, todo, workers, scheduler, folder, world, finished,
             submitted = time.perf_counter()
             for k in range(len(todo)):  # the scheduler does not say which has started
                 board.running(k, submitted)
-            pending, alone_since = set(futures), None
+            pending, alone_since, looked = set(futures), None, time.monotonic()
 
             def record(k: int, res: dict) -> None:
                 c = todo[k]
@@ -459,10 +459,12 @@ def _run(spec, bundle, todo, workers, scheduler, folder, world, finished,
                 board.show(time.perf_counter())
 
             while pending:
-                try:
-                    done = wait(list(pending), timeout=2.0, return_when="FIRST_COMPLETED").done
-                except TimeoutError:
-                    done = set()
+                # the futures' own states, polled: distributed.wait(timeout=2) was seen to
+                # hang for good once workers had been killed in a row (the soak: its
+                # timeout never fired while the event loop sat idle)
+                done = {f for f in pending if f.done()}
+                if not done:
+                    time.sleep(POLL_SECONDS)
                 gathered = False
                 for fut in done:
                     try:
@@ -478,8 +480,9 @@ def _run(spec, bundle, todo, workers, scheduler, folder, world, finished,
                     fut.release()
                     record(k, res)
                     gathered = True
-                if gathered or not pending:
+                if gathered or not pending or time.monotonic() - looked < 2.0:
                     continue
+                looked = time.monotonic()  # the scheduler asked every 2 s, not every poll
                 if client.scheduler_info().get("workers"):
                     alone_since = None
                     continue
@@ -497,6 +500,9 @@ def _run(spec, bundle, todo, workers, scheduler, folder, world, finished,
             if cluster is not None:
                 cluster.close()
 
+
+#: seconds between looks at the cases' futures while none has finished
+POLL_SECONDS = 0.2
 
 #: attempts at starting the local cluster (a worker killed while it starts fails the start)
 CLUSTER_STARTS = 3
