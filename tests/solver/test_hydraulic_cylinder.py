@@ -357,3 +357,24 @@ def test_joint_reactions_carry_the_cylinders_loads():
         rx = joint_reactions(s, r.q[k], r.qd[k], r.qdd[k], float(r.t[k]), {}, r.states[k])
         scale = np.abs(rx.force).max()
         assert rx.residual < 1e-9 * scale and scale > 10.0, (rx.residual, scale)
+
+
+def test_a_pump_of_given_flow_builds_its_pressure_then_the_relief_valve_holds_it():
+    """``pump_flow`` Q into a supply line of volume V_s, valve closed: its pressure rises
+    at beta Q / V_s (a straight line, by hand) until the relief valve opens, then settles
+    where the relief passes the whole flow: p_relief + 1e4 ln(exp(Q / (k_r 1e4)) - 1), the
+    smoothed valve's law inverted by hand. The load rests on its held pressure meanwhile."""
+    q, vs, pr, kr = 2e-4, 2e-2, 150e5, 1e-9  # 100 bar/s; the relief's time constant 20 ms
+    system, _ = _lift(0.0, pump_flow=q, supply_volume=vs, relief_pressure=pr,
+                      relief_gain=kr, initial_pressures=("hold", PB0))
+    te = np.linspace(0.0, 3.0, 301)
+    r = simulate(system, np.array([S0]), np.zeros(1), (0.0, 3.0), te,
+                 method="generalized_alpha", progress=False, rtol=1e-8, atol=1e-10)
+    assert r.verdict == "ok" and r.state_names == ("lift.p_a", "lift.p_b", "lift.p_s")
+    ps = r.state("lift.p_s")
+    rising = te < 0.5 * pr / (BETA * q / vs)  # well below the relief's opening
+    assert rising.sum() > 50
+    assert np.abs(ps[rising] - BETA * q / vs * te[rising]).max() < 1e-6 * pr
+    settled = pr + 1e4 * np.log(np.expm1(q / (kr * 1e4)))
+    assert ps[-1] == pytest.approx(settled, rel=1e-6), (ps[-1], settled)
+    assert np.abs(r.q[:, 0] - S0).max() < 1e-9

@@ -22,7 +22,12 @@ metering edge a sharp-edged orifice (zero lap, no spool dynamics yet):
 so f = sign(dp) sqrt(|dp|) (turbulent) above the ``laminar_drop`` dp_L and f ~ dp / sqrt(dp_L)
 (laminar) below it: the regularisation keeps dQ/dp finite at dp = 0, where the square root
 has an infinite slope that stalls Newton. Supply at ``supply_pressure`` (a constant-pressure
-pump), return to ``tank_pressure``.
+pump), return to ``tank_pressure``. Or, with ``pump_flow`` Q_p given, a pump of that flow
+feeds a supply line of volume V_s (``supply_volume``) whose pressure p_s is a third state,
+guarded by a relief valve that opens at ``relief_pressure`` (flow ``relief_gain`` times the
+excess, smoothed over 0.1 bar):
+
+    p_s' = beta / V_s (Q_p - Q_PA - Q_PB - Q_relief(p_s)).
 
 Force pushing the markers apart: F = p_a A_a - p_b A_b - c s' - F_c tanh(s' / v_s) (seal
 friction, viscous and Coulomb; the Coulomb part smoothed over ``friction_velocity`` v_s).
@@ -58,8 +63,8 @@ __all__ = ["HydraulicCylinder", "cylinder_force", "cylinder_rates"]
 PRESSURE_UNIT = 1e5
 
 # par columns of the packed element
-_AA, _AB, _L0, _STROKE, _VA0, _VB0, _BETA, _PS, _PT, _KV, _DPL, _LEAK, _VISC, _COUL, _VS = \
-    range(15)
+_AA, _AB, _L0, _STROKE, _VA0, _VB0, _BETA, _PS, _PT, _KV, _DPL, _LEAK, _VISC, _COUL, _VS, \
+    _QP, _PR, _KR, _VS0 = range(19)
 
 
 @dataclass(frozen=True)
@@ -94,10 +99,22 @@ class HydraulicCylinder(LineElement):
     laminar_drop: float = 1e5
     initial_pressures: tuple = (0.0, 0.0)
     command: Any = 0.0
+    pump_flow: float | None = None
+    relief_pressure: float | None = None
+    relief_gain: float = 1e-9
+    supply_volume: float = 1e-3
+    initial_supply_pressure: float = 0.0
     KIND: ClassVar[int] = 8
     HISTORY: ClassVar[str] = "command"
-    STATES: ClassVar[tuple[str, ...]] = ("p_a", "p_b")
-    STATE_UNITS: ClassVar[tuple[str, ...]] = ("Pa", "Pa")
+
+    @property
+    def STATES(self) -> tuple[str, ...]:
+        """(p_a, p_b), and the supply line's p_s when a pump of given flow feeds it."""
+        return ("p_a", "p_b") + (("p_s",) if self.pump_flow is not None else ())
+
+    @property
+    def STATE_UNITS(self) -> tuple[str, ...]:
+        return ("Pa",) * len(self.STATES)
 
     def __post_init__(self):
         where = f"force element '{self.name}'"
@@ -128,6 +145,13 @@ class HydraulicCylinder(LineElement):
             raise ConfigError(f"{where}: initial_pressures: expected [p_a, p_b] in Pa, one of "
                               f"them may be 'hold' (found so that the machine starts at "
                               f"rest), got {p!r}")
+        if self.pump_flow is not None:
+            for key in ("pump_flow", "relief_pressure", "relief_gain", "supply_volume"):
+                x = getattr(self, key)
+                if isinstance(x, bool) or not isinstance(x, int | float) or not x > 0 \
+                        or not math.isfinite(x):
+                    raise ConfigError(f"{where}: {key}: a pump of given flow needs a number "
+                                      f"> 0 here, got {x!r}")
         if not isinstance(self.tank_pressure, int | float) or \
                 not self.tank_pressure <= self.supply_pressure:
             raise ConfigError(f"{where}: tank_pressure: expected a number at most the supply "
@@ -151,11 +175,14 @@ class HydraulicCylinder(LineElement):
         """(15,) the packed parameters (the ``par`` row of the compiled form)."""
         aa, ab = self.areas
         va, vb = self.dead_volumes
+        pump = self.pump_flow is not None
         return np.array([aa, ab, self.length_retracted, self.stroke, va, vb,
                          self.bulk_modulus, self.supply_pressure, self.tank_pressure,
                          self.nominal_flow / math.sqrt(self.nominal_drop), self.laminar_drop,
                          self.leakage, self.viscous_friction, self.coulomb_friction,
-                         self.friction_velocity], dtype=float)
+                         self.friction_velocity, self.pump_flow if pump else 0.0,
+                         self.relief_pressure if pump else 0.0, self.relief_gain,
+                         self.supply_volume], dtype=float)
 
     def oil_stiffness(self, s: float) -> float:
         """The oil columns' axial stiffness beta (A_a^2 / V_a + A_b^2 / V_b) at stroke s (m),
@@ -172,11 +199,13 @@ class HydraulicCylinder(LineElement):
     def initial_states(self) -> np.ndarray:
         """(p_a, p_b) at the start, Pa; NaN for a ``hold`` pressure (found at the start so
         that the machine is at rest: pipeline.dynamics.held_states)."""
-        return np.array([np.nan if x == "hold" else x for x in self.initial_pressures],
-                        dtype=float)
+        p = [np.nan if x == "hold" else x for x in self.initial_pressures]
+        if self.pump_flow is not None:
+            p.append(self.initial_supply_pressure)
+        return np.array(p, dtype=float)
 
     def state_scales(self) -> np.ndarray:
-        return np.full(2, PRESSURE_UNIT)
+        return np.full(len(self.STATES), PRESSURE_UNIT)
 
     # ------------------------------------------------------------------ numpy
     def _force(self, system, tree, q, qd, t, z=None):
@@ -185,16 +214,16 @@ class HydraulicCylinder(LineElement):
         return piston_force(self.parameters(), float(z[0]), float(z[1]), float(dl @ qd)) * dl
 
     def state_rates(self, system, tree, q, qd, t: float, z) -> np.ndarray:
-        """(2,) (p_a', p_b'), Pa/s, at (q, qd, t) and the pressures z (2,)."""
+        """(p_a', p_b'[, p_s']), Pa/s, at (q, qd, t) and the pressures z."""
         from pipeline.dynamics.forces.loads import history_value
 
         z = self.own_states(z)
         _, _, length, _, dl = self.line(system, tree, q)
         u = history_value(self.command, t, self.name)
-        out = np.empty(2)
+        out = np.empty(3)
         pressure_rates(self.parameters(), length, float(dl @ qd), float(z[0]), float(z[1]),
-                       u, out)
-        return out
+                       float(z[2]) if z.size > 2 else 0.0, u, out)
+        return out[:z.size]
 
     def run_checks(self, system, r) -> list[str]:
         """What the model leaves out and a run ``r`` (SimulationResult) reached: a stroke
@@ -253,15 +282,28 @@ def piston_force(par, pa, pb, sd):
 
 
 @njit(cache=True)
-def pressure_rates(par, length, sd, pa, pb, u, out):
-    """out (2,) = (p_a', p_b'), Pa/s, at the length (m), stroke rate sd (m/s), pressures
-    pa, pb (Pa) and valve command u (module docstring)."""
+def relief_flow(par, ps):
+    """Flow (m^3/s) through the relief valve at the supply pressure ps (Pa): the gain
+    times the excess over the cracking pressure, smoothed over 0.1 bar."""
+    x = (ps - par[_PR]) / 1e4
+    soft = x if x > 30.0 else np.log1p(np.exp(x))  # softplus: max(x, 0), smooth
+    return par[_KR] * 1e4 * soft
+
+
+@njit(cache=True)
+def pressure_rates(par, length, sd, pa, pb, psup, u, out):
+    """out (3,) = (p_a', p_b', p_s'), Pa/s, at the length (m), stroke rate sd (m/s),
+    pressures pa, pb and, with a pump of given flow, the supply line's psup (Pa), and
+    valve command u (module docstring); p_s' is 0 for a constant supply pressure."""
     s = length - par[_L0]
     u = min(max(u, -1.0), 1.0)
     up, un = max(u, 0.0), max(-u, 0.0)
-    ps, pt, lam = par[_PS], par[_PT], par[_DPL]
-    qa = par[_KV] * (up * _orifice(ps - pa, lam) - un * _orifice(pa - pt, lam))
-    qb = par[_KV] * (un * _orifice(ps - pb, lam) - up * _orifice(pb - pt, lam))
+    pump = par[_QP] > 0.0
+    ps = psup if pump else par[_PS]
+    pt, lam = par[_PT], par[_DPL]
+    qpa, qpb = up * _orifice(ps - pa, lam), un * _orifice(ps - pb, lam)
+    qa = par[_KV] * (qpa - un * _orifice(pa - pt, lam))
+    qb = par[_KV] * (qpb - up * _orifice(pb - pt, lam))
     ql = par[_LEAK] * (pa - pb)
     # a stroke beyond the ends (no end stop yet: the run's checks report it) must not
     # empty a chamber: its volume is kept above a tenth of its dead volume
@@ -269,6 +311,10 @@ def pressure_rates(par, length, sd, pa, pb, u, out):
     vb = max(par[_VB0] + par[_AB] * (par[_STROKE] - s), 0.1 * par[_VB0])
     out[0] = par[_BETA] / va * (qa - par[_AA] * sd - ql)
     out[1] = par[_BETA] / vb * (qb + par[_AB] * sd + ql)
+    out[2] = 0.0
+    if pump:  # the supply line between the pump and the valve
+        out[2] = par[_BETA] / par[_VS0] * (par[_QP] - par[_KV] * (qpa + qpb)
+                                           - relief_flow(par, ps))
 
 
 @njit(cache=True)
@@ -285,6 +331,10 @@ def cylinder_force(e, q, v, z, A, dA, factor, d, Q, Qnc):
 def cylinder_rates(e, q, v, z, A, dA, factor, d, zd):
     length, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
     o = d.ints[e, 4]
-    out = np.empty(2)
-    pressure_rates(d.par[e], length, dl @ v, z[o], z[o + 1], factor[e], out)
+    pump = d.par[e, _QP] > 0.0
+    out = np.empty(3)
+    pressure_rates(d.par[e], length, dl @ v, z[o], z[o + 1], z[o + 2] if pump else 0.0,
+                   factor[e], out)
     zd[o], zd[o + 1] = out[0], out[1]
+    if pump:
+        zd[o + 2] = out[2]
