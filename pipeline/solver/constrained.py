@@ -30,7 +30,7 @@ from pipeline.kinematics.closure import closure
 from pipeline.kinematics.partition import RANK_RTOL
 
 __all__ = ["REGULARISATION", "ConstrainedState", "ConstrainedSystem", "drivers_at", "least_norm",
-           "mass_scale", "saddle_solve", "saddle_solve_regularised"]
+           "mass_scale", "saddle_solve", "saddle_solve_regularised", "same_time"]
 
 #: regularisation of the saddle-point solves of integrators (see
 #: :func:`saddle_solve_regularised`): relaxes only constraint directions whose singular value
@@ -96,8 +96,8 @@ class ConstrainedSystem:
             return out[0], out[1], out[2]
         at = times
         if self.left_of is not None:
-            at = np.where(np.abs(times - self.left_of) <= _SAME * np.maximum(1.0, np.abs(times)),
-                          _before(times), times)
+            at = np.where(np.abs(times - self.left_of) <= same_time(times), _before(times),
+                          times)
         for j, d in enumerate(self.drivers):
             out[0, :, j], out[1, :, j], out[2, :, j] = d.value(times), d.rate(at), d.accel(at)
         return out[0], out[1], out[2]
@@ -118,9 +118,15 @@ class ConstrainedSystem:
         """The drivers' break times (:meth:`pipeline.kinematics.driver_base.Driver.breaks`)
         in (t0, t1], sorted, s; one within 1e-10 (relative) of t0 is left out (it is the
         start)."""
-        tol = _SAME * max(1.0, abs(t0))
+        tol = float(same_time(t0))
         times = {t for d in self.drivers for t in d.breaks() if t0 + tol < t <= t1 + tol}
         return np.array(sorted(times), dtype=float)
+
+    def next_break(self, t: float, t1: float) -> float | None:
+        """The drivers' first break after t (s) and at most t1, or None: where a run
+        stepping from t stops and starts afresh, with ``left_of`` set to it meanwhile."""
+        b = self.breaks(t, t1)
+        return float(b[0]) if b.size else None
 
     def across_break(self, t: float, q: np.ndarray, v: np.ndarray, before=None
                      ) -> tuple[np.ndarray, float]:
@@ -229,7 +235,9 @@ class ConstrainedSystem:
         return qd
 
 
-_SAME = 1e-10  # relative: two times this close are one instant
+def same_time(t):
+    """Tolerance (s) within which two times are the same instant (an output, a break)."""
+    return 1e-10 * np.maximum(1.0, np.abs(t))
 
 
 def drivers_at(part, t: float, left_of: float | None = None):
@@ -237,7 +245,7 @@ def drivers_at(part, t: float, left_of: float | None = None):
     break ``left_of`` the rates and accelerations just before it (a run stepping up to a
     break sees the motion that arrives there, ConstrainedSystem.across_break the jump)."""
     d = driver_state(part, t)
-    if left_of is not None and abs(t - left_of) <= _SAME * max(1.0, abs(t)):
+    if left_of is not None and abs(t - left_of) <= same_time(t):
         before = driver_state(part, _before(t))
         return d[0], before[1], before[2]
     return d

@@ -28,7 +28,7 @@ from pipeline.core.progress import progress_counter
 from pipeline.dynamics.energy import energies
 from pipeline.dynamics.partition import partition_system, reduced_state, repartition
 from pipeline.kinematics.failures import ClosureError, SingularConfigurationError
-from pipeline.solver.constrained import ConstrainedSystem, drivers_at
+from pipeline.solver.constrained import ConstrainedSystem, drivers_at, same_time
 from pipeline.solver.monitors import StallWatch
 from pipeline.solver.result import ENERGY_KEYS, SimulationResult
 
@@ -86,7 +86,7 @@ class _Rhs:
         (an output time on a step end: an implicit step's last Newton evaluation)."""
         if self.last is not None:
             t0, y0, st = self.last
-            if abs(t - t0) <= _same_time(t) and np.array_equal(y0, y[:2 * self.nI]):
+            if abs(t - t0) <= same_time(t) and np.array_equal(y0, y[:2 * self.nI]):
                 return st
         return self.state(t, y)
 
@@ -127,11 +127,6 @@ def check_arguments(system, q0, qd0, t_span, t_eval, rtol, atol):
     if not (rtol > 0 and np.all(np.asarray(atol) > 0)):
         raise ConfigError(f"simulate: rtol, atol: expected values > 0, got {rtol}, {atol}")
     return q0, qd0, t0, t1, te
-
-
-def _same_time(t: float) -> float:
-    """Tolerance (s) within which two times are the same output instant."""
-    return 1e-10 * max(1.0, abs(t))
 
 
 def _record(rhs, t, y, out):
@@ -262,14 +257,14 @@ def _march(solver, rhs, te, y0, progress, out, stepper):
     dense, dense_of = None, None  # one interpolant per step, however many outputs it holds
     with progress_counter(te.size, "simulating", progress) as advance:
         for k, tk in enumerate(te):
-            while solver.t < tk - _same_time(tk) and solver.status != "failed":
+            while solver.t < tk - same_time(tk) and solver.status != "failed":
                 solver, msg = stepper.step(solver)
                 if msg:
                     return msg, t_out
             s0 = time.perf_counter()
             if solver.t_old is None:
                 y = y0 if solver.t == te[0] else solver.y
-            elif abs(solver.t - tk) <= _same_time(tk):  # on a step end: no interpolation
+            elif abs(solver.t - tk) <= same_time(tk):  # on a step end: no interpolation
                 y = solver.y
             else:
                 if dense_of != (solver, solver.t_old, solver.t):  # a restart makes a new solver
@@ -298,17 +293,14 @@ def run(system, q0, qd0, t0, t1, te, solver_cls, name, rtol, atol, progress,
     out, msg, t_out = [], None, 0.0
     stepper = None
     cs = ConstrainedSystem(system)
-    breaks = list(cs.breaks(t0, t1))
     try:
         def make(t, y, first_step=None, max_step=max_step):
             extra = {}
             if getattr(solver_cls, "SECOND_ORDER", False):  # y = [q_I, v_I, work, dissipated]
                 extra = {"n_second": rhs.nI, **(options or {})}
             # up to the drivers' next break, where the run starts afresh (dae._Run.march)
-            while breaks and breaks[0] <= t + _same_time(t):
-                breaks.pop(0)
-            bound = breaks[0] if breaks else t1
-            rhs.left_of, rhs._drive = (bound if breaks else None), None
+            rhs.left_of, rhs._drive = cs.next_break(t, t1), None
+            bound = t1 if rhs.left_of is None else rhs.left_of
             if first_step is not None:
                 first_step = min(first_step, bound - t)
             return solver_cls(rhs, t, y, bound, rtol=rtol, atol=atol, max_step=max_step,

@@ -15,15 +15,10 @@ import time
 import numpy as np
 
 from pipeline.dynamics.energy import energies
-from pipeline.solver.constrained import ConstrainedSystem
+from pipeline.solver.constrained import ConstrainedSystem, same_time
 from pipeline.solver.result import ENERGY_KEYS, SimulationResult
 
 __all__ = ["OutputGrid", "hermite", "same_time"]
-
-
-def same_time(t: float) -> float:
-    """Tolerance (s) within which two times are the same output instant."""
-    return 1e-10 * max(1.0, abs(t))
 
 
 def hermite(q0, v0, q1, v1, h, s):
@@ -94,8 +89,7 @@ class OutputGrid:
                          np.zeros(cs.P.size), e, 0.0, work, z)
             return
         if self.compiled is not None:
-            q, v, qdd, lam, F, e, res = self.compiled(t, q, v, z) if z.size else \
-                self.compiled(t, q, v)
+            q, v, qdd, lam, F, e, res = self.compiled(t, q, v, z)
             self._append(t, q, v, qdd, lam, F, e, res, work, z)
             return
         cs = self.cs

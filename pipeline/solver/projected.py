@@ -150,14 +150,10 @@ def run_projected(system, q0, qd0, t0, t1, te, solver_cls, name, *, rtol, atol,
     msg = None
     stall = StallWatch(t1 - t0)
 
-    breaks = list(cs.breaks(t0, t1))
-
     def make(t, y, first_step=None, max_step=max_step):
         # up to the drivers' next break, where the run starts afresh (_Run.march in dae)
-        while breaks and breaks[0] <= t + same_time(t):
-            breaks.pop(0)
-        bound = breaks[0] if breaks else t1
-        cs.left_of = bound if breaks else None
+        cs.left_of = cs.next_break(t, t1)
+        bound = t1 if cs.left_of is None else cs.left_of
         if first_step is not None:
             first_step = min(first_step, bound - t)
         return solver_cls(f, t, y, bound, rtol=rtol, atol=atol, max_step=max_step,
