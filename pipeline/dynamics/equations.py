@@ -71,11 +71,8 @@ def _force_elements(system, tree, q, qd, t, z=None):
     elements' states (System.state_slices), if the analysis carries them."""
     n = system.mechanism.n
     Qf, Qnc = np.zeros(n), np.zeros(n)
-    own = {id(f): sl for f, sl in system.state_slices}
     for f in system.forces:
-        args = (system, tree, q, qd, t)
-        if id(f) in own:
-            args += (None if z is None else z[own[id(f)]],)
+        args = (system, tree, q, qd, t, *system.states_of(f, z))
         Q = np.asarray(f.generalized_force(*args), dtype=float)
         Qf += Q
         if hasattr(f, "nonconservative_force"):  # ForceElement contract (forces/base.py)

@@ -266,11 +266,8 @@ def _external(system, tree, q, qd, t, W, Q, z=None):
     """Add the force elements' loads to the body wrenches W (L, 6); joint elements to Q
     (z: the elements' own states, System.state_slices, where the caller has them)."""
     mech = system.mechanism
-    own = {id(f): sl for f, sl in system.state_slices}
     for f in system.forces:
-        args = (system, tree, q, qd, t)
-        if id(f) in own:
-            args += (None if z is None else z[own[id(f)]],)
+        args = (system, tree, q, qd, t, *system.states_of(f, z))
         if hasattr(f, "coordinate"):
             Q += f.generalized_force(*args)
             continue

@@ -167,6 +167,14 @@ class System:
                 k += n
         return tuple(out)
 
+    def states_of(self, f, z) -> tuple:
+        """The trailing argument of force element f's methods: (its slice of the states z
+        (nz,), or None where the caller has none,) for an element with states, () else."""
+        for g, sl in self.state_slices:
+            if g is f:
+                return (None if z is None else z[sl],)
+        return ()
+
     @property
     def state_names(self) -> tuple[str, ...]:
         """Names ``<element>.<state>`` of the elements' states z, in order."""
