@@ -26,6 +26,7 @@ from pipeline.invariants.adequacy import DIRECTIONS
 from pipeline.invariants.body_frame import congruent, inverse_pose, points_to_body, vectors_to_body
 from pipeline.invariants.participation import align_repeated
 from pipeline.invariants.reduced_link import FrameModes, ReducedLink
+from pipeline.meshing.budget import MeshBudget
 from pipeline.meshing.geometry import BeamGeometry, SolidGeometry
 from pipeline.meshing.mesh_data import MeshData
 
@@ -54,7 +55,8 @@ class MarkerRequest:
 class LinkRequest:
     """Everything needed to reduce one link (plain values, SI units).
 
-    ``sections`` (beams) holds one BeamSection per polyline member.
+    ``sections`` (beams) holds one BeamSection per polyline member; ``mesh_budget`` what
+    a solid's meshing may take (default: :class:`MeshBudget`'s).
     """
 
     name: str
@@ -70,6 +72,7 @@ class LinkRequest:
     craig_bampton: bool = False
     geometric_stiffening: bool = False
     chord: str | None = None
+    mesh_budget: MeshBudget | None = None
 
 
 def reduce_link(request: LinkRequest, times: StageTimes | None = None,
@@ -92,7 +95,7 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
     times = times if times is not None else StageTimes()
     name = request.name
     with stage(f"meshing link '{name}'", times):
-        mesh = build_mesh(request.geometry, name)
+        mesh = build_mesh(request.geometry, name, budget=request.mesh_budget)
     with stage(f"assembling K, M of link '{name}'", times):
         model = _assemble(request, mesh)
     with stage(f"tying interfaces of link '{name}'", times):

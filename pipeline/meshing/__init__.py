@@ -4,10 +4,12 @@ Public API::
 
     SolidGeometry, BeamGeometry      what to mesh (frozen, validated)
     MESH_RECIPES                     recipe name -> OCC builder
-    build_mesh(geometry, name)       -> MeshData
+    build_mesh(geometry, name)       -> MeshData (a solid in its own process, budgeted)
+    MeshBudget                       wall time and memory one link's meshing may take
     PhysicalGroup, CylinderSurface, PlaneFace, NearestNode, BoxRegion, SELECTORS
 """
 
+from pipeline.meshing.budget import MeshBudget
 from pipeline.meshing.geometry import BeamGeometry, SolidGeometry
 from pipeline.meshing.gmsh_build import build_mesh
 from pipeline.meshing.mesh_data import MeshData
@@ -27,6 +29,7 @@ __all__ = [
     "BeamGeometry",
     "BoxRegion",
     "CylinderSurface",
+    "MeshBudget",
     "MeshData",
     "NearestNode",
     "PhysicalGroup",

@@ -19,6 +19,7 @@ import numpy as np
 
 from pipeline.core.errors import ConfigError, MeshError, PipelineError
 from pipeline.core.progress import stage
+from pipeline.meshing.budget import MeshBudget, check_mesh_budget, mesh_in_child
 from pipeline.meshing.geometry import BeamGeometry, SolidGeometry
 from pipeline.meshing.mesh_data import MeshData
 from pipeline.meshing.recipes import MESH_RECIPES
@@ -54,7 +55,8 @@ MESH_OPTIONS: dict[str, float] = {
 
 
 def build_mesh(geometry: SolidGeometry | BeamGeometry, name: str, *,
-               options: Mapping[str, float] | None = None) -> MeshData:
+               options: Mapping[str, float] | None = None, budget: MeshBudget | None = None,
+               isolate: bool = True) -> MeshData:
     """Mesh one link's geometry with gmsh.
 
     Parameters
@@ -66,6 +68,13 @@ def build_mesh(geometry: SolidGeometry | BeamGeometry, name: str, *,
     options : Mapping[str, float], optional
         Numeric gmsh options overriding :data:`MESH_OPTIONS` (solids only),
         e.g. ``{"Mesh.Algorithm3D": 10}``.
+    budget : MeshBudget, optional
+        Wall time and memory a solid's meshing may take (default: 600 s and the memory
+        available).
+    isolate : bool
+        Mesh a solid in a child process held to ``budget`` (default; see
+        :mod:`pipeline.meshing.budget`). False meshes in this process, unbounded (for
+        the child itself, and for callers that already run in a bounded process).
 
     Returns
     -------
@@ -91,7 +100,9 @@ def build_mesh(geometry: SolidGeometry | BeamGeometry, name: str, *,
     4
     """
     if isinstance(geometry, SolidGeometry):
-        build = functools.partial(_build_solid, options={**MESH_OPTIONS, **(options or {})})
+        opts = {**MESH_OPTIONS, **(options or {})}
+        build = functools.partial(mesh_in_child, options=opts, budget=budget or MeshBudget()) \
+            if isolate else functools.partial(build_solid, options=opts)
     elif isinstance(geometry, BeamGeometry):
         build = _build_beam
     else:
@@ -134,7 +145,10 @@ def gmsh_session(name: str) -> Iterator[Any]:
             gmsh.model.setCurrent(previous)
 
 
-def _build_solid(geometry: SolidGeometry, name: str, options: Mapping[str, float]) -> MeshData:
+def build_solid(geometry: SolidGeometry, name: str, options: Mapping[str, float],
+                memory: int | None = None) -> MeshData:
+    """Mesh a solid in this process (unbounded: see :func:`build_mesh`); the mesh estimated
+    before meshing must fit in ``memory`` bytes (default: the memory available)."""
     where = f"link {name!r}"
     check_extent(geometry.params, where)
     with gmsh_session(name) as gmsh:
@@ -145,7 +159,8 @@ def _build_solid(geometry: SolidGeometry, name: str, options: Mapping[str, float
             for dim in sorted({d for d, _ in entities}):
                 tags = [t for d, t in entities if d == dim]
                 gmsh.model.addPhysicalGroup(dim, tags, name=gname)
-        check_mesh_budget(_geometry_volume(gmsh), geometry.mesh_size, geometry.order, where)
+        check_mesh_budget(_geometry_volume(gmsh), geometry.mesh_size, geometry.order, where,
+                          memory)
         _set_mesh_options(gmsh, options, geometry.mesh_size, geometry.order)
         gmsh.model.mesh.generate(3)
         if geometry.order == 2:
@@ -160,22 +175,6 @@ def _build_solid(geometry: SolidGeometry, name: str, options: Mapping[str, float
                     boundary={face: boundary_faces(tets)}, groups=group_nodes, cad=cad,
                     source=f"gmsh:{geometry.recipe}" + (f":{geometry.path}"
                                                         if geometry.path else ""))
-
-
-#: tetrahedra per (volume / mesh_size^3) (6.1-6.3 on a 0.4 m bar, 7.0 on the lift arm, 11
-#: on a slender bar: below the low end, so that an estimate never refuses a mesh that fits)
-TETS_PER_SIZE_CUBE = 5.0
-#: memory of the reduction per FE degree of freedom, bytes (495 000 DOF took 7.6 GB:
-#: ~15 kB; the low end again)
-BYTES_PER_DOF = 10_000
-
-
-def estimated_dof(volume: float, size: float, order: int) -> float:
-    """Degrees of freedom of a solid mesh of ``volume`` m^3 at ``size`` m, before meshing
-    (a low estimate): ~5 tetrahedra per size^3; P2 meshes have ~1.9-2.1 nodes per
-    tetrahedron, P1 ~1/5."""
-    tets = TETS_PER_SIZE_CUBE * volume / size ** 3
-    return 3.0 * tets * (1.9 if order == 2 else 0.2)
 
 
 #: the largest coordinate or length a recipe takes, m (a link larger than 10 km is a typo,
@@ -197,22 +196,6 @@ def check_extent(params, where: str, path: str = "params") -> None:
             not abs(params) <= MAX_EXTENT:
         raise ConfigError(f"{where}: {path}: {params!r} m is beyond the recipes' range "
                           f"(at most {MAX_EXTENT:g} m)")
-
-
-def check_mesh_budget(volume: float, size: float, order: int, where: str,
-                      available: int | None = None) -> None:
-    """MeshError, before gmsh runs, when the estimated mesh would need more memory than
-    the machine has available (``available`` bytes; default: asked of the system)."""
-    from pipeline.core.resources import available_memory
-
-    dof = estimated_dof(volume, size, order)
-    need = dof * BYTES_PER_DOF
-    have = available_memory() if available is None else available
-    if have is not None and need > have:
-        raise MeshError(f"{where}: mesh_size {size:g} m on a volume of {volume:.4g} m^3 would "
-                        f"give ~{dof:.3g} degrees of freedom and need ~{need / 2**30:.3g} GB; "
-                        f"this machine has {have / 2**30:.3g} GB available: use a larger "
-                        "mesh_size")
 
 
 def _geometry_volume(gmsh) -> float:

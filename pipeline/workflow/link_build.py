@@ -17,9 +17,10 @@ from pipeline.fem.point_masses import PointMass
 from pipeline.fem.section import BeamSection
 from pipeline.invariants.reduce import LinkRequest, MarkerRequest
 from pipeline.invariants.store import FORMAT_VERSION
+from pipeline.meshing.budget import MeshBudget
 from pipeline.meshing.geometry import BeamGeometry, SolidGeometry
 from pipeline.meshing.selectors import SELECTORS
-from pipeline.workflow.link_spec import LinkSpec
+from pipeline.workflow.link_spec import BUDGET_FIELDS, LinkSpec
 
 _VERSIONED = ("numpy", "scipy", "scikit-fem", "gmsh")
 
@@ -72,12 +73,15 @@ def link_request(spec: LinkSpec, base_dir: Path) -> tuple[LinkRequest, tuple[Pat
     """Plain request for :func:`pipeline.invariants.reduce.reduce_link` and its input files."""
     g = spec.geometry
     files: tuple[Path, ...] = ()
+    budget = None
     if g.type == "solid":
         path = None
         if g.path is not None:
             path = (base_dir / g.path).resolve()
             files = (path,) if path.is_file() else ()
         geometry = SolidGeometry(g.recipe, dict(g.params), g.mesh_size, g.order, path)
+        budget = MeshBudget(g.time_limit, None if g.memory_limit is None
+                            else g.memory_limit * 2**30)
     else:
         geometry = BeamGeometry(np.asarray(g.points, float), g.element_size,
                                 tuple(g.vertex_names))
@@ -99,6 +103,7 @@ def link_request(spec: LinkSpec, base_dir: Path) -> tuple[LinkRequest, tuple[Pat
         n_modes=spec.modes.count, f_max=spec.modes.f_max,
         craig_bampton=spec.modes.craig_bampton,
         geometric_stiffening=spec.modes.geometric_stiffening, chord=spec.modes.chord,
+        mesh_budget=budget,
     )
     return request, files
 
@@ -130,8 +135,12 @@ REDUCTION_REVISION = 9
 
 
 def input_hash(spec: LinkSpec, files: tuple[Path, ...]) -> str:
-    """Hash of everything that determines the artifact: spec, files, code versions."""
-    return content_hash({"spec": spec.model_dump(mode="json"), "format": FORMAT_VERSION,
+    """Hash of everything that determines the artifact: spec (less the meshing budget),
+    files, code versions."""
+    data = spec.model_dump(mode="json")
+    for key in BUDGET_FIELDS:
+        data["geometry"].pop(key, None)
+    return content_hash({"spec": data, "format": FORMAT_VERSION,
                          "reduction": REDUCTION_REVISION, "versions": versions()}, files)
 
 

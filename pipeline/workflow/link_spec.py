@@ -21,6 +21,7 @@ from pydantic import (
     model_validator,
 )
 
+from pipeline.meshing.budget import MESH_SECONDS
 from pipeline.workflow.yaml_io import _fmt, config_error, load_yaml
 
 Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
@@ -54,6 +55,10 @@ class SectionSpec(Strict):
         None, description="polyline members (0-based) with this section; default all")
 
 
+#: geometry fields that bound the work, not the result: left out of a link's input hash
+BUDGET_FIELDS = ("time_limit", "memory_limit")
+
+
 class SolidGeometrySpec(Strict):
     type: Literal["solid"]
     recipe: str = Field(description="bar | plate_with_bores | bent_plate | box_section | geo | step")
@@ -61,6 +66,13 @@ class SolidGeometrySpec(Strict):
     path: str | None = Field(None, description=".geo or STEP file, relative to the spec file")
     mesh_size: float = Field(gt=0, description="target element size, m")
     order: int = Field(2, ge=1, le=2, description="geometric order of the tetrahedra, 1 or 2")
+    time_limit: float = Field(MESH_SECONDS, gt=0, allow_inf_nan=False,
+                              description="wall time meshing may take, s (it runs in its own "
+                                          "process, stopped at this limit)")
+    memory_limit: float | None = Field(None, gt=0, allow_inf_nan=False,
+                                       description="memory meshing may take and its "
+                                                   "reduction will need, GB (default: what "
+                                                   "the machine has available)")
 
 
 class BeamGeometrySpec(Strict):
