@@ -45,6 +45,7 @@ class Mutant:
     op: str
     path: tuple
     must_fail: bool  # invalid for certain (strict schema), whatever the context
+    files: tuple[tuple[str, bytes], ...] = ()  # written beside the mutant (its .geo, STEP)
 
 
 def _leaves(data, path=()):
@@ -78,17 +79,21 @@ def _set(data, path, value):
 _DELETE = object()
 
 
-def mutate(text: str, rng: random.Random, rigid_build: bool) -> Mutant:
+def mutate(text: str, rng: random.Random, rigid_build: bool, link: bool = False) -> Mutant:
     """One mutant of the YAML ``text``. ``rigid_build``: the check builds the machine, so
-    the free-form parts are checked too."""
+    the free-form parts are checked too; ``link``: a link spec, whose geometry the
+    ``mesh`` operator replaces by one aimed at a meshing guard (then meshed)."""
     data = yaml.safe_load(text)
     nodes = [(p, v) for p, v in _leaves(data) if p]
     op = rng.choice(["bool", "string", "nonfinite", "negative", "unknown_key", "delete",
-                     "null", "container", "text", "huge", "name", "inertia", "table", "axis"])
+                     "null", "container", "text", "huge", "name", "inertia", "table", "axis",
+                     "mesh"])
     if op in ("inertia", "table", "axis") and rigid_build:
         guarded = _guarded(data, op, rng)
         if guarded is not None:
             return guarded
+    if op == "mesh" and link and isinstance(data, dict):
+        return _meshing(data, rng)
     if op == "text":
         lines = text.splitlines(keepends=True)
         k = rng.randrange(len(lines))
@@ -193,6 +198,47 @@ def _guarded(data, op: str, rng: random.Random) -> Mutant | None:
                   True)
 
 
+_LOOP = b'SetFactory("OpenCASCADE");\nn = 10^12;\nFor i In {1:n}\n  x = i;\nEndFor\n'
+_SELF_MESHED = (b'SetFactory("OpenCASCADE");\nBox(1) = {0, 0, 0, 1, 1, 1};\n'
+                b"Mesh.MeshSizeMax = 0.002;\nMesh.MeshSizeMin = 0.002;\nMesh 3;\n")
+_FINE_FIELD = (b'SetFactory("OpenCASCADE");\nBox(1) = {0, 0, 0, 0.1, 0.02, 0.02};\n'
+               b'Field[1] = MathEval;\nField[1].F = "0.001";\nBackground Field = 1;\n')
+
+
+def _meshing(data: dict, rng: random.Random) -> Mutant:
+    """A link spec whose geometry meets one meshing guard (each refusal is certain): a .geo
+    loop whose bound is computed (time limit), a script that meshes itself finely (memory
+    budget), a size field finer than mesh_size (output budget), a CAD path that is a
+    device, a folder or missing, a STEP file of garbage, a length beyond the recipes'
+    range, a mesh_size far beyond the machine."""
+    guard = rng.choice(["loop", "self_meshed", "fine_field", "cad_path", "cad_garbage",
+                        "extent", "mesh_size"])
+    geo = {"type": "solid", "recipe": "geo", "path": "link.geo", "mesh_size": 0.05,
+           "order": 1}
+    files: tuple[tuple[str, bytes], ...] = ()
+    if guard == "loop":
+        geo["time_limit"], files = 2, (("link.geo", _LOOP),)
+    elif guard == "self_meshed":
+        geo["memory_limit"], files = 0.1, (("link.geo", _SELF_MESHED),)
+    elif guard == "fine_field":
+        geo["memory_limit"], files = 0.2, (("link.geo", _FINE_FIELD),)
+    elif guard == "cad_path":
+        geo.update(recipe="step", path=rng.choice(["/dev/zero", "/", "missing.step"]))
+    elif guard == "cad_garbage":
+        junk = bytes(rng.randrange(256) for _ in range(rng.randrange(0, 4096)))
+        geo.update(recipe="step", path="link.step")
+        files = (("link.step", rng.choice([b"", b"ISO-10303-21;\n" + junk, junk])),)
+    elif guard == "extent":
+        geo = {"type": "solid", "recipe": "bar", "mesh_size": 0.01,
+               "params": {"L": rng.choice([1e30, 1e5, -1.0e6]), "b": 0.02, "h": 0.01}}
+    else:
+        geo = {"type": "solid", "recipe": "bar", "mesh_size": rng.choice([1e-9, 1e-6]),
+               "params": {"L": 0.4, "b": 0.02, "h": 0.01}}
+    data["geometry"] = geo
+    return Mutant(yaml.safe_dump(data, sort_keys=False), f"mesh/{guard}", ("geometry",), True,
+                  files)
+
+
 class _Timeout(Exception):
     pass
 
@@ -205,15 +251,19 @@ def check(mutant: Mutant, path: Path, kind: str, build_cache: Path | None) -> tu
     """(outcome, detail) of one mutant written at ``path``; ``kind``: "workflow" or
     "link"; ``build_cache``: build rigid machines (their link cache) or None."""
     from pipeline.workflow import build_machine, load_workflow
-    from pipeline.workflow.link_spec import load_link_spec
+    from pipeline.workflow.link_spec import load_link_spec_lines
     from pipeline.workflow.run import build_cases, check_outputs
 
     path.write_text(mutant.text, encoding="utf-8")
+    for name, content in mutant.files:
+        (path.parent / name).write_bytes(content)
     old = signal.signal(signal.SIGALRM, _alarm)
     signal.alarm(TIME_LIMIT)
     try:
         if kind == "link":
-            load_link_spec(path)
+            spec, lines = load_link_spec_lines(path)
+            if mutant.op.startswith("mesh/"):  # mesh it, as pipeline reduce would first
+                _mesh(spec, path, lines)
         else:
             wf = load_workflow(path)
             if build_cache is not None:  # as validate --build does
@@ -238,6 +288,20 @@ def check(mutant: Mutant, path: Path, kind: str, build_cache: Path | None) -> tu
     return "ok", ""
 
 
+def _mesh(spec, path: Path, lines: dict) -> None:
+    """Mesh ``spec``'s geometry under its budget; an error at its line, as ``pipeline
+    reduce`` reports it."""
+    from pipeline.meshing import build_mesh
+    from pipeline.workflow.link_build import link_request
+    from pipeline.workflow.link_spec import locate
+
+    try:
+        request, _ = link_request(spec, path.parent)
+        build_mesh(request.geometry, spec.name, budget=request.mesh_budget)
+    except PipelineError as exc:
+        raise type(exc)(locate(str(exc), spec, path, lines, ("geometry",))) from None
+
+
 def run(bases: list[tuple[str, str, str, bool]], n: int, seed: int, folder: Path,
         cache: Path) -> dict[str, list[str]]:
     """Check ``n`` mutants of ``bases`` (name, text, kind, build); outcome -> details."""
@@ -245,7 +309,7 @@ def run(bases: list[tuple[str, str, str, bool]], n: int, seed: int, folder: Path
     out: dict[str, list[str]] = {}
     for k in range(n):
         name, text, kind, build = bases[k % len(bases)]
-        mutant = mutate(text, rng, build)
+        mutant = mutate(text, rng, build, link=kind == "link")
         sub = folder / f"m{k}"
         sub.mkdir(parents=True, exist_ok=True)
         outcome, detail = check(mutant, sub / f"{name}.yaml", kind, cache if build else None)
