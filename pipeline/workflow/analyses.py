@@ -189,6 +189,8 @@ def run_dynamic(m: Machine, a, path) -> dict:
     forces = {name: r.driver_forces[:, i] for i, name in enumerate(r.driven)}
     extra = {"closure_residual": r.closure_residual, "n_steps": r.n_steps, "n_rhs": r.n_rhs,
              "method": r.method, "formulation": r.formulation}
+    if "error_seconds" in r.step_stats:  # a fixed step's error estimate: what it cost
+        extra["error_estimate_seconds"] = r.step_stats["error_seconds"]
     if r.multipliers.size:
         extra["multipliers"] = r.multipliers
     return {

@@ -381,7 +381,10 @@ def _manifest(wf: Workflow, base: Machine, results, timings, status, files) -> d
                            "expected": expected.get((name, r.case), "ok"),
                            "message": r.message,
                            "warnings": list(r.warnings), "outputs": len(r.t),
-                           "seconds": round(r.timings.get("total", 0.0), 3)} for r in rs]
+                           "seconds": round(r.timings.get("total", 0.0), 3),
+                           **({"error_estimate_seconds":
+                               round(r.extra["error_estimate_seconds"], 3)}
+                              if "error_estimate_seconds" in r.extra else {})} for r in rs]
     links = {name: {"artifact": p.reduced.meta.get("input_hash", "")[:12], "cache": p.cache,
                     "modes": list(p.modes),
                     "frequencies_hz": [float(p.reduced.frequencies_hz[i]) for i in p.modes]}
