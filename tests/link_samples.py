@@ -105,7 +105,7 @@ def solid_bar_spec(name: str, length: float, b: float, h: float, *, mesh_size: f
 
 def boom_spec(length: float, pin: float, *, A: float, Iy: float, Iz: float, J: float,
               modes: str, neck_iz: float | None = None, E: float = 2.1e11,
-              element_size: float = 0.05) -> str:
+              element_size: float = 0.05, rho: float = 7850.0) -> str:
     """The YAML of a straight beam boom along x with interfaces ``root`` (the reference, at
     0), ``pin`` and ``tip`` (at ``pin`` and ``length``, m); with ``neck_iz`` its first 5 cm
     have that second moment about z (a small, soft bore at the root)."""
@@ -120,7 +120,7 @@ def boom_spec(length: float, pin: float, *, A: float, Iy: float, Iz: float, J: f
     lines = ["name: boom",
              (f"geometry: {{type: beam, points: [{points}], vertex_names: {names}, "
               f"element_size: {element_size!r}}}"),
-             f"material: {{E: {E!r}, nu: 0.3, rho: 7850}}", "sections:", *sections,
+             f"material: {{E: {E!r}, nu: 0.3, rho: {rho!r}}}", "sections:", *sections,
              "interfaces:"]
     lines += [f"  - {{name: {nm}, selector: {{type: nearest, point: [{x!r}, 0, 0]}}}}"
               for nm, x in (("root", 0.0), ("pin", pin), ("tip", length))]

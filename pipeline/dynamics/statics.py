@@ -88,14 +88,16 @@ class StaticResult:
     reduced: ReducedCoordinates | None = None
 
 
-def static_forces(system, q: np.ndarray, t: float = 0.0, qd: np.ndarray | None = None):
-    """(n,) Q_gravity + Q_elastic + sum of the force elements at (q, qd = 0 by default, t)."""
+def static_forces(system, q: np.ndarray, t: float = 0.0, qd: np.ndarray | None = None,
+                  z: np.ndarray | None = None):
+    """(n,) Q_gravity + Q_elastic + sum of the force elements at (q, qd = 0 by default, t)
+    and the elements' states z (nz,) (None: an element with states refuses)."""
     q = np.asarray(q, dtype=float)
     qd = np.zeros_like(q) if qd is None else np.asarray(qd, dtype=float)
     tree = evaluate_tree(system.mechanism, q)
     Q = gravity_force(system, tree, q) + elastic_forces(system, q, qd)[0]
     for f in system.forces:
-        Q = Q + f.generalized_force(system, tree, q, qd, t)
+        Q = Q + f.generalized_force(system, tree, q, qd, t, *system.states_of(f, z))
     return Q
 
 
@@ -124,8 +126,8 @@ def velocity_transform(system, q: np.ndarray, red: ReducedCoordinates,
     return velocity_map(J, part, cols, system.mechanism.n)
 
 
-def _place(system, q_ref, red, xv, t):
-    """Closed q with x = xv and the drivers at t."""
+def place(system, q_ref, red, xv, t):
+    """Closed q (n,) with x = xv and the drivers at t (other entries from q_ref)."""
     q = np.array(q_ref, dtype=float)
     q[red.x] = xv
     for name, drv in system.drivers.items():
@@ -136,10 +138,12 @@ def _place(system, q_ref, red, xv, t):
 
 
 def reduced_static_force(system, q_ref: np.ndarray, red: ReducedCoordinates, xv: np.ndarray,
-                         t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """f(x) = B^T Q (k,) and the closed q (n,) at x = xv (other entries from q_ref)."""
-    q = _place(system, q_ref, red, xv, t)
-    return velocity_transform(system, q, red).T @ static_forces(system, q, t), q
+                         t: float = 0.0, z: np.ndarray | None = None
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """f(x) = B^T Q (k,) and the closed q (n,) at x = xv (other entries from q_ref), the
+    elements' states held at z."""
+    q = place(system, q_ref, red, xv, t)
+    return velocity_transform(system, q, red).T @ static_forces(system, q, t, z=z), q
 
 
 def fd_steps(system, red: ReducedCoordinates, xv: np.ndarray, rel: float = 1e-6) -> np.ndarray:
@@ -157,15 +161,16 @@ def fd_steps(system, red: ReducedCoordinates, xv: np.ndarray, rel: float = 1e-6)
     return out
 
 
-def tangent(system, q_ref, red, xv, t=0.0) -> np.ndarray:
-    """(k, k) df/dx by central differences of :func:`reduced_static_force`."""
+def tangent(system, q_ref, red, xv, t=0.0, z=None) -> np.ndarray:
+    """(k, k) df/dx by central differences of :func:`reduced_static_force` (states held
+    at z)."""
     h = fd_steps(system, red, xv)
     D = np.empty((xv.size, xv.size))
     for k in range(xv.size):
         e = np.zeros(xv.size)
         e[k] = h[k]
-        fp = reduced_static_force(system, q_ref, red, xv + e, t)[0]
-        fm = reduced_static_force(system, q_ref, red, xv - e, t)[0]
+        fp = reduced_static_force(system, q_ref, red, xv + e, t, z)[0]
+        fm = reduced_static_force(system, q_ref, red, xv - e, t, z)[0]
         D[:, k] = (fp - fm) / (2.0 * h[k])
     return D
 
@@ -180,20 +185,20 @@ def _check(system, q_guess):
     return q
 
 
-def _scale(system, q, red, t) -> float:
+def _scale(system, q, red, t, z=None) -> float:
     """Force scale of the convergence test: |B^T Q_gravity| + |B^T Q_rest| + 1 N."""
     B = velocity_transform(system, q, red)
     Qg = gravity_force(system, evaluate_tree(system.mechanism, q), q)
-    rest = static_forces(system, q, t) - Qg
+    rest = static_forces(system, q, t, z=z) - Qg
     return np.abs(B.T @ Qg).max(initial=0) + np.abs(B.T @ rest).max(initial=0) + 1.0
 
 
-def _line_search(system, q, red, xv, dx, f, t):
+def _line_search(system, q, red, xv, dx, f, t, z=None):
     """Halve the Newton step while |f| grows; (step, f, q) or None if it leaves the domain."""
     step = 1.0
     for _ in range(10):
         try:
-            f_new, q_new = reduced_static_force(system, q, red, xv + step * dx, t)
+            f_new, q_new = reduced_static_force(system, q, red, xv + step * dx, t, z)
         except (ClosureError, SingularConfigurationError):
             f_new = None
         if f_new is not None and np.linalg.norm(f_new) <= np.linalg.norm(f) * (1 + 1e-12):
@@ -203,8 +208,11 @@ def _line_search(system, q, red, xv, dx, f, t):
 
 
 def static_equilibrium(system, q_guess: np.ndarray, *, t: float = 0.0, hold=(),
-                       tol: float = 1e-10, max_iter: int = 30) -> StaticResult:
-    """Static equilibrium near q_guess (drivers at time t; ``hold``: names held fixed).
+                       tol: float = 1e-10, max_iter: int = 30,
+                       z: np.ndarray | None = None) -> StaticResult:
+    """Static equilibrium near q_guess (drivers at time t; ``hold``: names held fixed;
+    force elements with states of their own held at the states z (nz,), e.g. given
+    cylinder pressures; without z such an element refuses).
 
     Converged when |f| <= tol * (|B^T Q_gravity| + |B^T Q_elements| + 1 N).
     Newton steps are halved while |f| grows (up to 10 times). Failure (no
@@ -223,19 +231,19 @@ def static_equilibrium(system, q_guess: np.ndarray, *, t: float = 0.0, hold=(),
                             f"cannot assemble the start: {exc}")
     names = tuple(system.mechanism.coordinates[i] for i in red.x)
     xv = q[red.x].copy()
-    f, q = reduced_static_force(system, q, red, xv, t)
+    f, q = reduced_static_force(system, q, red, xv, t, z)
     D, msg = np.zeros((xv.size, xv.size)), None
     for it in range(max_iter + 1):
-        scale = _scale(system, q, red, t)
+        scale = _scale(system, q, red, t, z)
         try:
-            D = tangent(system, q, red, xv, t)
+            D = tangent(system, q, red, xv, t, z)
             if np.abs(f).max(initial=0) <= tol * scale or it == max_iter:
                 break  # converged (a neutral direction, e.g. a free slide, is fine here)
             dx = np.linalg.solve(D, -f)
         except (np.linalg.LinAlgError, ClosureError, SingularConfigurationError) as exc:
             msg = f"Newton failed: {exc}"
             break
-        found = _line_search(system, q, red, xv, dx, f, t)
+        found = _line_search(system, q, red, xv, dx, f, t, z)
         if found is None:
             msg = "Newton step leaves the assembly domain"
             break
@@ -245,4 +253,4 @@ def static_equilibrium(system, q_guess: np.ndarray, *, t: float = 0.0, hold=(),
     if msg is None:
         msg = "converged" if ok else (f"not converged after {max_iter} iterations: |f| = "
                                       f"{np.abs(f).max():.3e}")
-    return StaticResult(q, names, f, -D, static_forces(system, q, t), it, ok, msg, red)
+    return StaticResult(q, names, f, -D, static_forces(system, q, t, z=z), it, ok, msg, red)

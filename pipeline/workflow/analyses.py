@@ -232,8 +232,12 @@ def _released(m: Machine, loads, path):
 def run_linearised(m: Machine, a, path) -> dict:
     q = m.q0
     msg = ""
+    # force elements' states (cylinder pressures) stay at their start values (a hold
+    # pressure found at the initial pose): the statics and the linear model about them
+    states = m.system.initial_states(m.q0, a.t) if m.system.state_slices else None
     if a.start == "static":
-        r = static_equilibrium(m.system, m.q0, t=a.t, hold=_hold(m, a.hold, *path, "hold"))
+        r = static_equilibrium(m.system, m.q0, t=a.t, hold=_hold(m, a.hold, *path, "hold"),
+                               z=states)
         if not r.success:
             return {
                 "success": False,
@@ -244,7 +248,8 @@ def run_linearised(m: Machine, a, path) -> dict:
                 "qdd": np.zeros((1, r.q.size)),
             }
         q = r.q
-    v = vibration_modes(m.system, q, t=a.t, hold=_hold(m, a.hold, *path, "hold"))
+    v = vibration_modes(m.system, q, t=a.t, hold=_hold(m, a.hold, *path, "hold"),
+                        z_eq=states)
     k = min(a.count, v.omega.size)
     z = np.zeros((1, q.size))
     lm = v.model
@@ -252,6 +257,9 @@ def run_linearised(m: Machine, a, path) -> dict:
              "damping_ratios": v.damping_ratios[:k], "shapes": v.shapes[:, :k],
              "shapes_q": v.shapes_q[:, :k], "M": lm.M, "K": lm.K, "C": lm.C, "B": lm.B,
              "x_coordinates": np.array(lm.coordinates, dtype=object)}
+    if states is not None:
+        extra.update(shapes_z=v.shapes_z[:, :k], G=lm.G, S=lm.S,
+                     z_names=np.array(lm.state_names, dtype=object))
     return {
         "success": True,
         "message": msg,

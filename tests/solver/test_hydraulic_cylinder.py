@@ -378,3 +378,101 @@ def test_a_pump_of_given_flow_builds_its_pressure_then_the_relief_valve_holds_it
     settled = pr + 1e4 * np.log(np.expm1(q / (kr * 1e4)))
     assert ps[-1] == pytest.approx(settled, rel=1e-6), (ps[-1], settled)
     assert np.abs(r.q[:, 0] - S0).max() < 1e-9
+
+
+def test_the_linearised_frequency_includes_the_oil_columns():
+    """vibration_modes about the rest the hold pressures keep (issue 27, item 4): the
+    oil-column frequency sqrt(beta (A_a^2 / V_a + A_b^2 / V_b) / m) in closed form, and
+    its pressures' share of the mode. The two neutral directions (the oil trapped on each
+    side: a family of equilibria) are not modes."""
+    from pipeline.dynamics.linearize import vibration_modes
+
+    system, _ = _lift(0.0, initial_pressures=("hold", PB0))
+    modes = vibration_modes(system, np.array([S0]))
+    va, vb = VA0 + AA * S0, VB0 + AB * (STROKE - S0)
+    omega = np.sqrt(BETA * (AA ** 2 / va + AB ** 2 / vb) / MASS)
+    assert modes.model.state_names == ("lift.p_a", "lift.p_b")
+    np.testing.assert_allclose(modes.model.z, [PA0, PB0], rtol=1e-12)
+    ring = np.flatnonzero(modes.frequencies_hz > 0)
+    assert modes.omega.size == 1 and ring.size == 1
+    assert abs(modes.omega[ring[0]] / omega - 1.0) < 1e-6, (modes.omega, omega)
+    assert abs(modes.damping_ratios[ring[0]]) < 1e-9
+    # a stroke dx compresses side a by beta A_a dx / V_a and relieves side b
+    dz = modes.shapes_z[:, ring[0]] / modes.shapes[0, ring[0]]
+    np.testing.assert_allclose(dz.real, [-BETA * AA / va, BETA * AB / vb], rtol=1e-6)
+
+
+def test_the_linearised_model_with_friction_and_leakage_is_the_hand_built_one():
+    """Viscous seal friction c and leakage c_l across the piston: about the rest where both
+    chambers hold p = m g / (A_a - A_b), the eigenvalues of the hand-linearised four-state
+    model [s, v, p_a, p_b] (damped oil column, and the slow leak-down of the load)."""
+    from pipeline.dynamics.linearize import vibration_modes
+
+    c, cl = 2.0e3, 2.0e-11
+    p = MASS * G / (AA - AB)
+    system, _ = _lift(0.0, viscous_friction=c, leakage=cl, initial_pressures=(p, p))
+    modes = vibration_modes(system, np.array([S0]))
+    va, vb = VA0 + AA * S0, VB0 + AB * (STROKE - S0)
+    A = np.array([[0.0, 1.0, 0.0, 0.0],
+                  [0.0, -c / MASS, AA / MASS, -AB / MASS],
+                  [0.0, -BETA * AA / va, -BETA * cl / va, BETA * cl / va],
+                  [0.0, BETA * AB / vb, BETA * cl / vb, -BETA * cl / vb]])
+    lam = np.linalg.eigvals(A)
+    lam = lam[np.abs(lam) > 1e-9 * np.abs(lam).max()]  # the total oil's neutral direction
+    ref = np.sort(np.abs(lam[lam.imag >= -1e-9 * np.abs(lam).max()]))
+    assert ref.size == 2  # the damped oil column and the load's leak-down
+    np.testing.assert_allclose(np.sort(modes.omega), ref, rtol=1e-6)
+    ring = np.argmax(modes.frequencies_hz)
+    pair = lam[np.argmax(lam.imag)]
+    assert abs(modes.damping_ratios[ring] + pair.real / abs(pair) ) < 1e-6
+    assert modes.damping_ratios[ring] > 0.005  # the seal friction damps it
+
+
+def test_a_flexible_boom_on_its_cylinder_rings_at_the_two_spring_frequency(tmp_path):
+    """A light beam boom (length L, pinned at its root) carries a tip mass M and rests on a
+    vertical cylinder at a from the root, valve closed. Hand-built reference: the tip sees
+    two springs in series, the oil columns' k_oil reflected by the lever, k_oil a^2 / L^2,
+    and the overhang's bending (span a, overhang c = L - a: tip deflection P c^2 L /
+    (3 E I)), so omega^2 = k / M with 1/k = L^2 / (a^2 k_oil) + c^2 L / (3 E I). The
+    linearised machine (Craig-Bampton boom, oil pressures as states) gives its first
+    frequency; the boom's mass is 1e-4 of M."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from link_samples import boom_spec
+
+    from pipeline.dynamics import body_from_reduced, link_from_reduced, static_equilibrium
+    from pipeline.dynamics.linearize import vibration_modes
+    from pipeline.workflow.link_build import reduce_spec
+    from pipeline.workflow.link_spec import load_link_spec
+
+    L, a, h, M, E, Iz = 3.0, 1.0, 1.0, 2000.0, 2.1e11, 1.2e-4
+    bore, rod, stroke, L0, dead = 0.1, 0.05, 0.5, 0.8, 1e-4
+    text = boom_spec(L, a, A=0.01, Iy=1e-3, Iz=Iz, J=2e-4, E=E, rho=7.85,
+                     modes="{count: 4, craig_bampton: true}", element_size=0.1)
+    text += f"point_masses:\n  - {{name: load, position: [{L!r}, 0, 0], mass: {M!r}}}\n"
+    (tmp_path / "boom.yaml").write_text(text)
+    red = reduce_spec(load_link_spec(tmp_path / "boom.yaml"), tmp_path, tmp_path / "links")[0]
+    mount = np.eye(4)
+    mount[:3, 3] = [a, -h, 0.0]
+    mech = build_mechanism([rigid_link("ground", {"mount": mount}),
+                            link_from_reduced(red, name="boom")],
+                           [Joint("pivot", "revolute", "ground", "body", "boom", "root")])
+    cyl = HydraulicCylinder("lift", ("ground", "mount"), ("boom", "pin"), bore=bore, rod=rod,
+                            stroke=stroke, length_retracted=L0, supply_pressure=200e5,
+                            nominal_flow=1e-3, dead_volume_a=dead, dead_volume_b=dead,
+                            initial_pressures=("hold", 10e5))
+    system = System(mech, {"boom": body_from_reduced(red)}, gravity=[0, -G, 0], forces=(cyl,))
+    q0 = np.zeros(mech.n)
+    z = system.initial_states(q0)
+    st = static_equilibrium(system, q0, z=z)
+    assert st.success, st.message
+    modes = vibration_modes(system, st.q, z_eq=z)
+    s = h - L0
+    aa, ab = np.pi / 4 * bore ** 2, np.pi / 4 * (bore ** 2 - rod ** 2)
+    k_oil = 1.0e9 * (aa ** 2 / (dead + aa * s) + ab ** 2 / (dead + ab * (stroke - s)))
+    k = 1.0 / (L ** 2 / (a ** 2 * k_oil) + (L - a) ** 2 * L / (3 * E * Iz))
+    omega = np.sqrt(k / M)
+    first = modes.omega[modes.frequencies_hz > 0].min()
+    assert abs(first / omega - 1.0) < 5e-4, (first, omega, modes.omega[:6])  # 1.2e-4
+    # each spring matters: the boom alone, or the oil alone, is far off
+    assert first < 0.8 * np.sqrt(k_oil * a ** 2 / L ** 2 / M)
+    assert first < 0.8 * np.sqrt(3 * E * Iz / ((L - a) ** 2 * L) / M)

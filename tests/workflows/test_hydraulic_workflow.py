@@ -101,3 +101,20 @@ def test_a_static_analysis_cannot_carry_the_pressures(tmp_path):
                                           r"element\(s\) \['lift'\] have states.*this one is "
                                           r"static"):
         run_workflow(_write(tmp_path, text), out_root=tmp_path / "out", outputs=False)
+
+
+@pytest.mark.parametrize("start", ["initial", "static"])
+def test_a_linearised_analysis_rings_at_the_oil_column_frequency(tmp_path, start):
+    """The pressures held at their start values (the hold pressure found at the initial
+    pose): the linearised frequency is the closed-valve oil column's closed form."""
+    from test_hydraulic_cylinder import AA, AB, BETA, MASS, STROKE, VA0, VB0
+
+    text = LIFT.replace("analyses:\n", f"analyses:\n  - {{name: ring, type: linearised, "
+                                       f"start: {start}, count: 3}}\n")
+    res = run_workflow(_write(tmp_path, text), out_root=tmp_path / "out", outputs=False)
+    r = res.result("ring", "")
+    assert r.success and r.verdict == "ok", (r.message, r.warnings)
+    omega = np.sqrt(BETA * (AA ** 2 / (VA0 + AA * S0) + AB ** 2 / (VB0 + AB * (STROKE - S0)))
+                    / MASS)
+    np.testing.assert_allclose(r.extra["omega"], [omega], rtol=1e-6)
+    assert list(r.extra["z_names"]) == ["lift.p_a", "lift.p_b"]
