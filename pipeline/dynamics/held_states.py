@@ -11,7 +11,8 @@ balance on the joint coordinates J that are neither driven nor modal is
 a linear least-squares problem in (z_K, lambda) (C: the loops' closure Jacobian). The
 modal coordinates are left out: flexible links start undeformed, as given, and their
 modes ring from there, moving the joints with them through the mass matrix (a static
-start that deflects them under the held pressures is not done yet). A balance the open
+start, ``static_equilibrium(..., z=z)``, deflects them under the held pressures). A
+balance the open
 states cannot meet (a motion no holding element resists) is a ConfigError naming the
 coordinates left unbalanced.
 """

@@ -156,8 +156,11 @@ def run_dynamic(m: Machine, a, path) -> dict:
     if a.start != "initial":
         start = StaticStart() if a.start == "static" else a.start
         system = _released(m, start.loads, (*path, "start", "loads"))
+        # force elements' states held at their start values (a hold pressure found at the
+        # initial pose) deflect the flexible links; the run finds them again at the start
+        states = m.system.initial_states(m.q0, 0.0) if m.system.state_slices else None
         r = static_equilibrium(m.system, m.q0,
-                               hold=_hold(m, start.hold, *path, "start", "hold"))
+                               hold=_hold(m, start.hold, *path, "start", "hold"), z=states)
         if not r.success:
             return {
                 "success": False,

@@ -428,51 +428,86 @@ def test_the_linearised_model_with_friction_and_leakage_is_the_hand_built_one():
     assert modes.damping_ratios[ring] > 0.005  # the seal friction damps it
 
 
-def test_a_flexible_boom_on_its_cylinder_rings_at_the_two_spring_frequency(tmp_path):
-    """A light beam boom (length L, pinned at its root) carries a tip mass M and rests on a
-    vertical cylinder at a from the root, valve closed. Hand-built reference: the tip sees
-    two springs in series, the oil columns' k_oil reflected by the lever, k_oil a^2 / L^2,
-    and the overhang's bending (span a, overhang c = L - a: tip deflection P c^2 L /
-    (3 E I)), so omega^2 = k / M with 1/k = L^2 / (a^2 k_oil) + c^2 L / (3 E I). The
-    linearised machine (Craig-Bampton boom, oil pressures as states) gives its first
-    frequency; the boom's mass is 1e-4 of M."""
+BOOM = {"L": 3.0, "a": 1.0, "h": 1.0, "M": 2000.0, "E": 2.1e11, "Iz": 1.2e-4, "bore": 0.1,
+        "rod": 0.05, "stroke": 0.5, "L0": 0.8, "dead": 1e-4}
+
+
+def _boom(folder, rho=7.85, modes="{count: 4, craig_bampton: true}"):
+    """A beam boom (length L, pinned at its root; light by default) with a tip mass M on
+    a vertical cylinder at a from the root, valve closed, the piston side holding it."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from link_samples import boom_spec
 
-    from pipeline.dynamics import body_from_reduced, link_from_reduced, static_equilibrium
-    from pipeline.dynamics.linearize import vibration_modes
+    from pipeline.dynamics import body_from_reduced, link_from_reduced
     from pipeline.workflow.link_build import reduce_spec
     from pipeline.workflow.link_spec import load_link_spec
 
-    L, a, h, M, E, Iz = 3.0, 1.0, 1.0, 2000.0, 2.1e11, 1.2e-4
-    bore, rod, stroke, L0, dead = 0.1, 0.05, 0.5, 0.8, 1e-4
-    text = boom_spec(L, a, A=0.01, Iy=1e-3, Iz=Iz, J=2e-4, E=E, rho=7.85,
-                     modes="{count: 4, craig_bampton: true}", element_size=0.1)
-    text += f"point_masses:\n  - {{name: load, position: [{L!r}, 0, 0], mass: {M!r}}}\n"
-    (tmp_path / "boom.yaml").write_text(text)
-    red = reduce_spec(load_link_spec(tmp_path / "boom.yaml"), tmp_path, tmp_path / "links")[0]
+    b = BOOM
+    text = boom_spec(b["L"], b["a"], A=0.01, Iy=1e-3, Iz=b["Iz"], J=2e-4, E=b["E"], rho=rho,
+                     modes=modes, element_size=0.1)
+    text += f"point_masses:\n  - {{name: load, position: [{b['L']!r}, 0, 0], mass: {b['M']!r}}}\n"
+    (folder / "boom.yaml").write_text(text)
+    red = reduce_spec(load_link_spec(folder / "boom.yaml"), folder, folder / "links")[0]
     mount = np.eye(4)
-    mount[:3, 3] = [a, -h, 0.0]
+    mount[:3, 3] = [b["a"], -b["h"], 0.0]
     mech = build_mechanism([rigid_link("ground", {"mount": mount}),
                             link_from_reduced(red, name="boom")],
                            [Joint("pivot", "revolute", "ground", "body", "boom", "root")])
-    cyl = HydraulicCylinder("lift", ("ground", "mount"), ("boom", "pin"), bore=bore, rod=rod,
-                            stroke=stroke, length_retracted=L0, supply_pressure=200e5,
-                            nominal_flow=1e-3, dead_volume_a=dead, dead_volume_b=dead,
+    cyl = HydraulicCylinder("lift", ("ground", "mount"), ("boom", "pin"), bore=b["bore"],
+                            rod=b["rod"], stroke=b["stroke"], length_retracted=b["L0"],
+                            supply_pressure=200e5, nominal_flow=1e-3,
+                            dead_volume_a=b["dead"], dead_volume_b=b["dead"],
                             initial_pressures=("hold", 10e5))
-    system = System(mech, {"boom": body_from_reduced(red)}, gravity=[0, -G, 0], forces=(cyl,))
-    q0 = np.zeros(mech.n)
+    return System(mech, {"boom": body_from_reduced(red)}, gravity=[0, -G, 0], forces=(cyl,))
+
+
+def test_a_flexible_boom_on_its_cylinder_rings_at_the_two_spring_frequency(tmp_path):
+    """Hand-built reference: the tip sees two springs in series, the oil columns' k_oil
+    reflected by the lever, k_oil a^2 / L^2, and the overhang's bending (span a, overhang
+    c = L - a: tip deflection P c^2 L / (3 E I)), so omega^2 = k / M with 1/k = L^2 /
+    (a^2 k_oil) + c^2 L / (3 E I). The linearised machine (oil pressures as states) gives
+    its first frequency; the boom's mass is 1e-4 of M."""
+    from pipeline.dynamics import static_equilibrium
+    from pipeline.dynamics.linearize import vibration_modes
+
+    system = _boom(tmp_path)
+    q0 = np.zeros(system.mechanism.n)
     z = system.initial_states(q0)
     st = static_equilibrium(system, q0, z=z)
     assert st.success, st.message
     modes = vibration_modes(system, st.q, z_eq=z)
-    s = h - L0
-    aa, ab = np.pi / 4 * bore ** 2, np.pi / 4 * (bore ** 2 - rod ** 2)
+    b = BOOM
+    L, a, E, Iz, dead, stroke = b["L"], b["a"], b["E"], b["Iz"], b["dead"], b["stroke"]
+    s = b["h"] - b["L0"]
+    aa, ab = np.pi / 4 * b["bore"] ** 2, np.pi / 4 * (b["bore"] ** 2 - b["rod"] ** 2)
     k_oil = 1.0e9 * (aa ** 2 / (dead + aa * s) + ab ** 2 / (dead + ab * (stroke - s)))
     k = 1.0 / (L ** 2 / (a ** 2 * k_oil) + (L - a) ** 2 * L / (3 * E * Iz))
-    omega = np.sqrt(k / M)
+    omega = np.sqrt(k / b["M"])
     first = modes.omega[modes.frequencies_hz > 0].min()
     assert abs(first / omega - 1.0) < 5e-4, (first, omega, modes.omega[:6])  # 1.2e-4
     # each spring matters: the boom alone, or the oil alone, is far off
-    assert first < 0.8 * np.sqrt(k_oil * a ** 2 / L ** 2 / M)
-    assert first < 0.8 * np.sqrt(3 * E * Iz / ((L - a) ** 2 * L) / M)
+    assert first < 0.8 * np.sqrt(k_oil * a ** 2 / L ** 2 / b["M"])
+    assert first < 0.8 * np.sqrt(3 * E * Iz / ((L - a) ** 2 * L) / b["M"])
+
+
+def test_a_static_start_under_held_pressures_leaves_the_flexible_boom_at_rest(tmp_path):
+    """The hold pressure is found with the boom undeformed; the statics with that pressure
+    held deflect the boom, and a run from there stays at rest (from the undeformed pose the
+    boom rings by its whole static deflection)."""
+    from pipeline.dynamics import static_equilibrium
+
+    system = _boom(tmp_path, rho=7850.0, modes="{count: 3}")
+    q0 = np.zeros(system.mechanism.n)
+    st = static_equilibrium(system, q0, z=system.initial_states(q0))
+    assert st.success, st.message
+    modal = system.mechanism.modal_coordinates
+    sag = np.abs(st.q[modal]).max()
+    assert sag > 1e-6
+    te = np.linspace(0.0, 0.08, 9)  # half the ring's period
+    for start, bound in ((st.q, 1e-6 * sag), (q0, 0.5 * sag)):
+        r = simulate(system, start, np.zeros_like(start), (0.0, 0.08), te,
+                     method="generalized_alpha", step=2e-3, rtol=1e-4, atol=1e-9,
+                     progress=False)
+        assert r.success, r.message
+        moved = np.abs(r.q[:, modal] - st.q[modal]).max()
+        assert (moved < bound) == (start is st.q), (moved, sag)
