@@ -77,6 +77,8 @@ def scaled_error(r: SimulationResult, deviation: np.ndarray, U: np.ndarray, rtol
                                          modal_index)
     if not np.all(np.isfinite(scaled)):
         return {"error_ratio": np.inf, "error_coordinate": "", "error_time": float(r.t[-1])}
+    if not scaled.size:  # every coordinate driven: only element states are integrated
+        return {"error_ratio": 0.0, "error_coordinate": "", "error_time": float(r.t[0])}
     i, j = np.unravel_index(int(np.argmax(scaled)), scaled.shape)
     return {"error_ratio": float(scaled[i, j]),
             "error_coordinate": r.coordinates[int(U[j])], "error_time": float(r.t[i])}

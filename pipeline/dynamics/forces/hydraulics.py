@@ -14,10 +14,17 @@ Pressures (Pa, gauge) p_a, p_b are the element's states, from the oil's compress
     p_a' = beta / V_a (Q_a - A_a s' - Q_L),    p_b' = beta / V_b (Q_b + A_b s' + Q_L),
 
 with the leakage across the piston Q_L = c_L (p_a - p_b). The valve's command u(t) in
-[-1, 1] (``command``; clipped) opens P->A and B->T for u > 0, P->B and A->T for u < 0, each
-metering edge a sharp-edged orifice (zero lap, no spool dynamics yet):
+[-1, 1] (``command``; clipped) sets its spool position x: at once (x = u), or through spool
+dynamics, a first-order lag (``spool_time_constant`` tau: x' = (u - x) / tau) or a
+second-order one (``spool_frequency`` f_v, ``spool_damping`` zeta_v: x'' = w_v^2 (u - x) -
+2 zeta_v w_v x', w_v = 2 pi f_v), x (and x') then being states of the element too. The
+spool opens P->A and B->T for x > 0, P->B and A->T for x < 0, each metering edge a
+sharp-edged orifice whose opening is a(x) = clip((x - o) / (1 - o), 0, 1) for the edges x
+opens (and a(-x) for the others), o the ``spool_overlap`` as a fraction of the travel
+(0: zero lap; o > 0: a dead band of +-o; o < 0: underlap, every edge open by -o / (1 - o)
+at centre, the oil passing P->A->T and P->B->T):
 
-    Q = K |u| f(dp),  K = Q_nom / sqrt(dp_nom),  f(dp) = dp / (dp^2 + dp_L^2)^(1/4),
+    Q = K a f(dp),  K = Q_nom / sqrt(dp_nom),  f(dp) = dp / (dp^2 + dp_L^2)^(1/4),
 
 so f = sign(dp) sqrt(|dp|) (turbulent) above the ``laminar_drop`` dp_L and f ~ dp / sqrt(dp_L)
 (laminar) below it: the regularisation keeps dQ/dp finite at dp = 0, where the square root
@@ -35,8 +42,8 @@ The element is non-conservative: its power F s' enters the energy balance as wor
 the machine (the ``dissipated`` entry, with its sign: negative where the cylinder lifts).
 
 Not modelled (yet): end-stop cushions (a stroke outside [0, stroke] is reported by the
-run's checks), cavitation (pressures below -1 bar gauge are reported), spool dynamics,
-pressure-dependent bulk modulus, relief and load-holding valves.
+run's checks), cavitation (pressures below -1 bar gauge are reported), pressure-dependent
+bulk modulus, load-holding valves.
 
 The scalar physics (flows, pressure rates, force) is written once, as compiled functions
 the numpy methods call too; only the geometry has its numpy and compiled forms, shared
@@ -64,7 +71,7 @@ PRESSURE_UNIT = 1e5
 
 # par columns of the packed element
 _AA, _AB, _L0, _STROKE, _VA0, _VB0, _BETA, _PS, _PT, _KV, _DPL, _LEAK, _VISC, _COUL, _VS, \
-    _QP, _PR, _KR, _VS0 = range(19)
+    _QP, _PR, _KR, _VS0, _SPOOL, _TAU, _WV, _ZV, _OVL = range(24)
 
 
 @dataclass(frozen=True)
@@ -104,17 +111,29 @@ class HydraulicCylinder(LineElement):
     relief_gain: float = 1e-9
     supply_volume: float = 1e-3
     initial_supply_pressure: float = 0.0
+    spool_time_constant: float | None = None
+    spool_frequency: float | None = None
+    spool_damping: float = 0.7
+    spool_overlap: float = 0.0
     KIND: ClassVar[int] = 8
     HISTORY: ClassVar[str] = "command"
 
     @property
+    def spool_order(self) -> int:
+        """0: the spool follows the command at once; 1 or 2: the order of its dynamics."""
+        return 2 if self.spool_frequency is not None else \
+            1 if self.spool_time_constant is not None else 0
+
+    @property
     def STATES(self) -> tuple[str, ...]:
-        """(p_a, p_b), and the supply line's p_s when a pump of given flow feeds it."""
-        return ("p_a", "p_b") + (("p_s",) if self.pump_flow is not None else ())
+        """(p_a, p_b), the supply line's p_s when a pump of given flow feeds it, and the
+        spool's position x_v (and rate v_v) when it has dynamics."""
+        return ("p_a", "p_b") + (("p_s",) if self.pump_flow is not None else ()) \
+            + ("x_v", "v_v")[:self.spool_order]
 
     @property
     def STATE_UNITS(self) -> tuple[str, ...]:
-        return ("Pa",) * len(self.STATES)
+        return ("Pa",) * (2 + (self.pump_flow is not None)) + ("1", "1/s")[:self.spool_order]
 
     def __post_init__(self):
         where = f"force element '{self.name}'"
@@ -152,6 +171,19 @@ class HydraulicCylinder(LineElement):
                         or not math.isfinite(x):
                     raise ConfigError(f"{where}: {key}: a pump of given flow needs a number "
                                       f"> 0 here, got {x!r}")
+        for key in ("spool_time_constant", "spool_frequency", "spool_damping"):
+            x = getattr(self, key)
+            if x is not None and (isinstance(x, bool) or not isinstance(x, int | float)
+                                  or not x > 0 or not math.isfinite(x)):
+                raise ConfigError(f"{where}: {key}: expected a number > 0, got {x!r}")
+        if self.spool_time_constant is not None and self.spool_frequency is not None:
+            raise ConfigError(f"{where}: spool_frequency: give the spool a first-order lag "
+                              f"(spool_time_constant) or a second-order one "
+                              f"(spool_frequency, spool_damping), not both")
+        o = self.spool_overlap
+        if isinstance(o, bool) or not isinstance(o, int | float) or not -1.0 < o < 1.0:
+            raise ConfigError(f"{where}: spool_overlap: expected a fraction of the spool's "
+                              f"travel in (-1, 1) (negative: underlap), got {o!r}")
         if not isinstance(self.tank_pressure, int | float) or \
                 not self.tank_pressure <= self.supply_pressure:
             raise ConfigError(f"{where}: tank_pressure: expected a number at most the supply "
@@ -172,7 +204,7 @@ class HydraulicCylinder(LineElement):
                 0.1 * ab * self.stroke if self.dead_volume_b is None else self.dead_volume_b)
 
     def parameters(self) -> np.ndarray:
-        """(15,) the packed parameters (the ``par`` row of the compiled form)."""
+        """(24,) the packed parameters (the ``par`` row of the compiled form)."""
         aa, ab = self.areas
         va, vb = self.dead_volumes
         pump = self.pump_flow is not None
@@ -182,7 +214,10 @@ class HydraulicCylinder(LineElement):
                          self.leakage, self.viscous_friction, self.coulomb_friction,
                          self.friction_velocity, self.pump_flow if pump else 0.0,
                          self.relief_pressure if pump else 0.0, self.relief_gain,
-                         self.supply_volume], dtype=float)
+                         self.supply_volume, self.spool_order,
+                         self.spool_time_constant or 0.0,
+                         2 * math.pi * (self.spool_frequency or 0.0), self.spool_damping,
+                         self.spool_overlap], dtype=float)
 
     def oil_stiffness(self, s: float) -> float:
         """The oil columns' axial stiffness beta (A_a^2 / V_a + A_b^2 / V_b) at stroke s (m),
@@ -197,15 +232,26 @@ class HydraulicCylinder(LineElement):
                 list(self.parameters()), None)
 
     def initial_states(self) -> np.ndarray:
-        """(p_a, p_b) at the start, Pa; NaN for a ``hold`` pressure (found at the start so
-        that the machine is at rest: pipeline.dynamics.held_states)."""
+        """(p_a, p_b[, p_s][, x_v[, v_v]]) at the start: pressures in Pa, NaN for a ``hold``
+        pressure (found at the start so that the machine is at rest:
+        pipeline.dynamics.held_states); the spool at rest where the command at t = 0 puts
+        it."""
+        from pipeline.dynamics.forces.loads import history_value
+
         p = [np.nan if x == "hold" else x for x in self.initial_pressures]
         if self.pump_flow is not None:
             p.append(self.initial_supply_pressure)
+        if self.spool_order:
+            u = min(max(history_value(self.command, 0.0, self.name), -1.0), 1.0)
+            p += [u, 0.0][:self.spool_order]
         return np.array(p, dtype=float)
 
     def state_scales(self) -> np.ndarray:
-        return np.full(len(self.STATES), PRESSURE_UNIT)
+        """A bar for a pressure; the spool's whole travel (and that per spool time)."""
+        rate = 1.0 / (self.spool_time_constant or 1.0 / (2 * math.pi * (
+            self.spool_frequency or 1.0)))
+        return np.array([PRESSURE_UNIT] * (2 + (self.pump_flow is not None))
+                        + [1.0, rate][:self.spool_order])
 
     # ------------------------------------------------------------------ numpy
     def _force(self, system, tree, q, qd, t, z=None):
@@ -219,11 +265,11 @@ class HydraulicCylinder(LineElement):
 
         z = self.own_states(z)
         _, _, length, _, dl = self.line(system, tree, q)
-        u = history_value(self.command, t, self.name)
-        out = np.empty(3)
-        pressure_rates(self.parameters(), length, float(dl @ qd), float(z[0]), float(z[1]),
-                       float(z[2]) if z.size > 2 else 0.0, u, out)
-        return out[:z.size]
+        par = self.parameters()
+        out = np.empty(z.size)
+        valve_rates(par, history_value(self.command, t, self.name), length, float(dl @ qd),
+                    z, 0, out)
+        return out
 
     def run_checks(self, system, r) -> list[str]:
         """What the model leaves out and a run ``r`` (SimulationResult) reached: a stroke
@@ -291,13 +337,42 @@ def relief_flow(par, ps):
 
 
 @njit(cache=True)
-def pressure_rates(par, length, sd, pa, pb, psup, u, out):
+def opening(par, x):
+    """The opening (0..1) of the metering edges the spool position x opens (module
+    docstring: its overlap o, clipped travel); a(-x) is the other edges'."""
+    o = par[_OVL]
+    return min(max((min(max(x, -1.0), 1.0) - o) / (1.0 - o), 0.0), 1.0)
+
+
+@njit(cache=True)
+def valve_rates(par, u, length, sd, z, o, zd):
+    """zd[o:] = the rates of the element's states z[o:] (module docstring: pressures, the
+    supply line's, the spool's) at the command u, length (m) and stroke rate sd (m/s)."""
+    pump = par[_QP] > 0.0
+    k = o + 2 + (1 if pump else 0)  # the spool's states
+    order = int(par[_SPOOL])
+    x = u if order == 0 else z[k]
+    out = np.empty(3)
+    pressure_rates(par, length, sd, z[o], z[o + 1], z[o + 2] if pump else 0.0, x, out)
+    zd[o], zd[o + 1] = out[0], out[1]
+    if pump:
+        zd[o + 2] = out[2]
+    u = min(max(u, -1.0), 1.0)
+    if order == 1:
+        zd[k] = (u - z[k]) / par[_TAU]
+    elif order == 2:
+        w = par[_WV]
+        zd[k] = z[k + 1]
+        zd[k + 1] = w * w * (u - z[k]) - 2.0 * par[_ZV] * w * z[k + 1]
+
+
+@njit(cache=True)
+def pressure_rates(par, length, sd, pa, pb, psup, x, out):
     """out (3,) = (p_a', p_b', p_s'), Pa/s, at the length (m), stroke rate sd (m/s),
     pressures pa, pb and, with a pump of given flow, the supply line's psup (Pa), and
-    valve command u (module docstring); p_s' is 0 for a constant supply pressure."""
+    spool position x (module docstring); p_s' is 0 for a constant supply pressure."""
     s = length - par[_L0]
-    u = min(max(u, -1.0), 1.0)
-    up, un = max(u, 0.0), max(-u, 0.0)
+    up, un = opening(par, x), opening(par, -x)
     pump = par[_QP] > 0.0
     ps = psup if pump else par[_PS]
     pt, lam = par[_PT], par[_DPL]
@@ -330,11 +405,4 @@ def cylinder_force(e, q, v, z, A, dA, factor, d, Q, Qnc):
 @njit(cache=True)
 def cylinder_rates(e, q, v, z, A, dA, factor, d, zd):
     length, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
-    o = d.ints[e, 4]
-    pump = d.par[e, _QP] > 0.0
-    out = np.empty(3)
-    pressure_rates(d.par[e], length, dl @ v, z[o], z[o + 1], z[o + 2] if pump else 0.0,
-                   factor[e], out)
-    zd[o], zd[o + 1] = out[0], out[1]
-    if pump:
-        zd[o + 2] = out[2]
+    valve_rates(d.par[e], factor[e], length, dl @ v, z, d.ints[e, 4], zd)
