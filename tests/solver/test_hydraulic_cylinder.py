@@ -531,7 +531,7 @@ def test_a_first_order_spool_follows_a_ramp_command_as_its_closed_form():
         res = _run(system, te, h)
         assert res.success, res.message
         errors.append(np.abs(res.state("lift.x_v") - exact).max())
-    assert errors[1] < 2e-6 and errors[0] / errors[1] > 3.4, errors
+    assert errors[1] < 1e-6 and errors[0] / errors[1] > 3.8, errors  # 3.1e-6, 7.7e-7
 
 
 def _reference_spool(command, t_end, te, tau=None, f_v=None, zeta_v=0.7, overlap=0.0):
