@@ -177,7 +177,8 @@ def test_the_compiled_forms_equal_the_numpy_methods_and_virtual_work():
                    for e in np.eye(q.size)])
     from pipeline.dynamics.forces.hydraulics import piston_force
 
-    F = piston_force(cyl.parameters(), z[0], z[1], float(dl @ qd))
+    F = piston_force(cyl.parameters(), z[0], z[1], length(q) - cyl.length_retracted,
+                     float(dl @ qd))
     assert np.abs(terms.Q_forces - F * dl).max() < 1e-6 * np.abs(F * dl).max()
 
 
@@ -237,7 +238,7 @@ def test_a_valve_driven_from_outside_brings_the_mass_to_its_goal():
 
 
 def test_what_the_model_leaves_out_is_reported():
-    """Fully open for 1.2 s the mass runs past the stroke's end (no end stops yet); a 20 t
+    """Fully open for 1.2 s the mass runs past the stroke's end (no end stops given); a 20 t
     load lowered with the valve fully open runs away from the rod side's supply, whose
     pressure falls far below -1 bar (cavitation, not modelled). Each is named, and the
     run is not ok."""
@@ -612,3 +613,39 @@ def test_an_underlapped_spool_at_centre_holds_each_chamber_at_half_the_supply():
     r = _run(system, te, 5e-4, rtol=1e-4)
     assert r.success and r.verdict == "ok", r.report
     np.testing.assert_allclose(r.states[-1, :2], [PS / 2, PS / 2], rtol=1e-6)
+
+
+def test_the_mass_rests_on_the_retracted_end_stop_at_its_closed_form_depth():
+    """Both chambers at tank pressure, no oil force: the mass sits on the retracted end
+    stop, m g / k_e deep (statics with the pressures held)."""
+    from pipeline.dynamics import static_equilibrium
+
+    k = 5.0e7
+    system, _ = _lift(0.0, end_stiffness=k, end_damping=0.0, initial_pressures=(0.0, 0.0))
+    st = static_equilibrium(system, np.array([-1e-4]), z=np.zeros(2))  # in contact
+    assert st.success, st.message
+    assert abs(st.q[0] - (-MASS * G / k)) < 1e-9 * MASS * G / k + 1e-15
+
+
+@pytest.mark.parametrize("damping", [0.0, 2.0])
+def test_a_mass_dropped_on_the_end_stop_sinks_as_deep_as_its_energy_allows(damping):
+    """The mass falls 5 cm onto the retracted end stop (oil with a bulk modulus of 1 Pa:
+    no oil force). Without damping the deepest point meets m g (h + d) = k_e d^2 / 2 and it
+    rebounds to its height (the stop's work returned); with Hunt-Crossley damping it sinks
+    less and rebounds lower, the energy balance holding with the stop's work."""
+    k, h = 2.0e6, 0.05
+    system, _ = _lift(0.0, end_stiffness=k, end_damping=damping, bulk_modulus=1.0,
+                      initial_pressures=(0.0, 0.0))
+    te = np.linspace(0.0, 0.4, 401)
+    r = simulate(system, np.array([h]), np.zeros(1), (0.0, 0.4), te,
+                 method="generalized_alpha", step=2e-5, rtol=1e-4, atol=1e-9,
+                 progress=False)
+    assert r.success and r.verdict == "ok", r.report
+    w = MASS * G
+    deepest = (w + np.sqrt(w * w + 2 * k * w * h)) / k
+    bounce = r.q[te > 0.15, 0].max()  # after the first contact
+    if damping == 0.0:
+        assert abs(-r.q[:, 0].min() / deepest - 1.0) < 5e-4, (r.q[:, 0].min(), deepest)
+        assert abs(bounce / h - 1.0) < 1e-3, bounce  # 9e-5 (outputs 1 ms apart), 2e-5
+    else:
+        assert -r.q[:, 0].min() < 0.97 * deepest and bounce < 0.8 * h, (r.q[:, 0].min(), bounce)

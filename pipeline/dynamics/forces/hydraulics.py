@@ -37,12 +37,16 @@ excess, smoothed over 0.1 bar):
     p_s' = beta / V_s (Q_p - Q_PA - Q_PB - Q_relief(p_s)).
 
 Force pushing the markers apart: F = p_a A_a - p_b A_b - c s' - F_c tanh(s' / v_s) (seal
-friction, viscous and Coulomb; the Coulomb part smoothed over ``friction_velocity`` v_s).
+friction, viscous and Coulomb; the Coulomb part smoothed over ``friction_velocity`` v_s),
+and with ``end_stiffness`` k_e the end stops: a stroke beyond [0, stroke] by a depth d
+meets -sign k_e d (1 + c_e d') (Hunt and Crossley: the damping ``end_damping`` c_e, s/m,
+grows with the depth, so the force is continuous at contact and the rebound loses energy
+as a real stop does).
 The element is non-conservative: its power F s' enters the energy balance as work done on
 the machine (the ``dissipated`` entry, with its sign: negative where the cylinder lifts).
 
-Not modelled (yet): end-stop cushions (a stroke outside [0, stroke] is reported by the
-run's checks), cavitation (pressures below -1 bar gauge are reported), pressure-dependent
+Not modelled (yet): the cushions' throttling near the ends (without end stops a stroke
+outside [0, stroke] is reported by the run's checks), cavitation (pressures below -1 bar gauge are reported), pressure-dependent
 bulk modulus, load-holding valves.
 
 The scalar physics (flows, pressure rates, force) is written once, as compiled functions
@@ -71,7 +75,7 @@ PRESSURE_UNIT = 1e5
 
 # par columns of the packed element
 _AA, _AB, _L0, _STROKE, _VA0, _VB0, _BETA, _PS, _PT, _KV, _DPL, _LEAK, _VISC, _COUL, _VS, \
-    _QP, _PR, _KR, _VS0, _SPOOL, _TAU, _WV, _ZV, _OVL = range(24)
+    _QP, _PR, _KR, _VS0, _SPOOL, _TAU, _WV, _ZV, _OVL, _KE, _CE = range(26)
 
 
 @dataclass(frozen=True)
@@ -115,6 +119,8 @@ class HydraulicCylinder(LineElement):
     spool_frequency: float | None = None
     spool_damping: float = 0.7
     spool_overlap: float = 0.0
+    end_stiffness: float | None = None
+    end_damping: float = 0.0
     KIND: ClassVar[int] = 8
     HISTORY: ClassVar[str] = "command"
 
@@ -180,6 +186,11 @@ class HydraulicCylinder(LineElement):
             raise ConfigError(f"{where}: spool_frequency: give the spool a first-order lag "
                               f"(spool_time_constant) or a second-order one "
                               f"(spool_frequency, spool_damping), not both")
+        for key in ("end_stiffness", "end_damping"):
+            x = getattr(self, key)
+            if x is not None and (isinstance(x, bool) or not isinstance(x, int | float)
+                                  or not x >= 0 or not math.isfinite(x)):
+                raise ConfigError(f"{where}: {key}: expected a number >= 0, got {x!r}")
         o = self.spool_overlap
         if isinstance(o, bool) or not isinstance(o, int | float) or not -1.0 < o < 1.0:
             raise ConfigError(f"{where}: spool_overlap: expected a fraction of the spool's "
@@ -204,7 +215,7 @@ class HydraulicCylinder(LineElement):
                 0.1 * ab * self.stroke if self.dead_volume_b is None else self.dead_volume_b)
 
     def parameters(self) -> np.ndarray:
-        """(24,) the packed parameters (the ``par`` row of the compiled form)."""
+        """(26,) the packed parameters (the ``par`` row of the compiled form)."""
         aa, ab = self.areas
         va, vb = self.dead_volumes
         pump = self.pump_flow is not None
@@ -217,7 +228,8 @@ class HydraulicCylinder(LineElement):
                          self.supply_volume, self.spool_order,
                          self.spool_time_constant or 0.0,
                          2 * math.pi * (self.spool_frequency or 0.0), self.spool_damping,
-                         self.spool_overlap], dtype=float)
+                         self.spool_overlap, self.end_stiffness or 0.0, self.end_damping],
+                        dtype=float)
 
     def oil_stiffness(self, s: float) -> float:
         """The oil columns' axial stiffness beta (A_a^2 / V_a + A_b^2 / V_b) at stroke s (m),
@@ -256,8 +268,9 @@ class HydraulicCylinder(LineElement):
     # ------------------------------------------------------------------ numpy
     def _force(self, system, tree, q, qd, t, z=None):
         z = self.own_states(z)
-        dl = self.line(system, tree, q)[4]
-        return piston_force(self.parameters(), float(z[0]), float(z[1]), float(dl @ qd)) * dl
+        _, _, length, _, dl = self.line(system, tree, q)
+        return piston_force(self.parameters(), float(z[0]), float(z[1]),
+                            length - self.length_retracted, float(dl @ qd)) * dl
 
     def state_rates(self, system, tree, q, qd, t: float, z) -> np.ndarray:
         """(p_a', p_b'[, p_s']), Pa/s, at (q, qd, t) and the pressures z."""
@@ -299,16 +312,23 @@ class HydraulicCylinder(LineElement):
             beyond = max(-s, s - self.stroke)
             if beyond > worst[0]:
                 worst = (beyond, s, float(r.t[k]))
-        if worst[0] > 1e-3 * self.stroke:
+        if self.end_stiffness:
+            if worst[0] > 0.05 * self.stroke:
+                out.append(f"hydraulic cylinder '{self.name}': its stroke reached "
+                           f"{worst[1]:.4g} m at t = {worst[2]:.4g} s, {worst[0]:.3g} m into "
+                           f"its end stop (beyond 5 % of the stroke): end_stiffness "
+                           f"{self.end_stiffness:g} N/m is too soft for this load")
+        elif worst[0] > 1e-3 * self.stroke:
             out.append(f"hydraulic cylinder '{self.name}': its stroke reached {worst[1]:.4g} m "
-                       f"at t = {worst[2]:.4g} s, outside [0, {self.stroke:g}] m; the model "
-                       f"has no end stops yet, so the motion beyond is not the machine's")
+                       f"at t = {worst[2]:.4g} s, outside [0, {self.stroke:g}] m; without end "
+                       f"stops (end_stiffness) the motion beyond is not the machine's")
         return out
 
     def loads(self, system, tree, q, qd, t, z=None):
         z = self.own_states(z)
-        dl = self.line(system, tree, q)[4]
-        f = piston_force(self.parameters(), float(z[0]), float(z[1]), float(dl @ qd))
+        _, _, length, _, dl = self.line(system, tree, q)
+        f = piston_force(self.parameters(), float(z[0]), float(z[1]),
+                         length - self.length_retracted, float(dl @ qd))
         return self.line_loads(system, tree, q, f)
 
 
@@ -320,11 +340,17 @@ def _orifice(dp, laminar):
 
 
 @njit(cache=True)
-def piston_force(par, pa, pb, sd):
-    """Force pushing the markers apart, N, at the pressures pa, pb (Pa) and stroke rate sd
-    (m/s): pressures on the areas less the seal friction."""
-    return pa * par[_AA] - pb * par[_AB] - par[_VISC] * sd \
-        - par[_COUL] * np.tanh(sd / par[_VS])
+def piston_force(par, pa, pb, s, sd):
+    """Force pushing the markers apart, N, at the pressures pa, pb (Pa), stroke s (m) and
+    stroke rate sd (m/s): pressures on the areas less the seal friction, and the end
+    stops' (module docstring)."""
+    f = pa * par[_AA] - pb * par[_AB] - par[_VISC] * sd - par[_COUL] * np.tanh(sd / par[_VS])
+    if par[_KE] > 0.0:
+        if s < 0.0:  # below the retracted end: pushed out
+            f += par[_KE] * -s * (1.0 - par[_CE] * sd)
+        elif s > par[_STROKE]:  # beyond the extended end: pulled in
+            f -= par[_KE] * (s - par[_STROKE]) * (1.0 + par[_CE] * sd)
+    return f
 
 
 @njit(cache=True)
@@ -394,9 +420,9 @@ def pressure_rates(par, length, sd, pa, pb, psup, x, out):
 
 @njit(cache=True)
 def cylinder_force(e, q, v, z, A, dA, factor, d, Q, Qnc):
-    _, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
+    length, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
     o = d.ints[e, 4]
-    f = piston_force(d.par[e], z[o], z[o + 1], dl @ v)
+    f = piston_force(d.par[e], z[o], z[o + 1], length - d.par[e, _L0], dl @ v)
     for i in range(q.shape[0]):
         Q[i] += f * dl[i]
         Qnc[i] += f * dl[i]
