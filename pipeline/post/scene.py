@@ -14,7 +14,7 @@ from pipeline.core.errors import ConfigError
 from pipeline.kinematics import evaluate_tree
 from pipeline.kinematics.compiled import coordinate_vector
 from pipeline.post.render import _pyvista, save_png
-from pipeline.post.views import check_camera
+from pipeline.post.views import check_camera, view_direction
 
 
 def link_poses(mech, q) -> np.ndarray:
@@ -330,8 +330,8 @@ def _camera(plotter, camera):
     2-D views are parallel projections (lengths read the same everywhere)."""
     check_camera(camera)
     if not isinstance(camera, str):
-        v = np.asarray(camera, dtype=float)
-        up = (0.0, 0.0, 1.0) if abs(v[2]) < 0.9 * np.linalg.norm(v) else (0.0, 1.0, 0.0)
+        v = view_direction(camera)
+        up = (0.0, 0.0, 1.0) if abs(v[2]) < 0.9 else (0.0, 1.0, 0.0)
         plotter.view_vector(v, viewup=up)
         return
     {"xy": plotter.view_xy, "xz": plotter.view_xz, "yz": plotter.view_yz,

@@ -25,8 +25,17 @@ def check_camera(camera):
         ok = camera in CAMERAS
     else:
         v = np.asarray(camera, dtype=float)
-        ok = v.shape == (3,) and np.isfinite(v).all() and np.linalg.norm(v) > 0
+        ok = v.shape == (3,) and np.isfinite(v).all() and np.abs(v).max() > 0
     if not ok:
         raise ConfigError(f"camera {camera!r}: expected a named view {CAMERAS} or a direction "
                           "[x, y, z] of non-zero length")
     return camera
+
+
+def view_direction(camera) -> np.ndarray:
+    """The unit vector (3,) of a direction ``camera`` (see :func:`check_camera`), scaled by
+    its largest entry first, so that 1e308 or 1e-320 entries neither overflow nor vanish."""
+    check_camera(camera)
+    v = np.asarray(camera, dtype=float)
+    v = v / np.abs(v).max()
+    return v / np.linalg.norm(v)

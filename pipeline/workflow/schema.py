@@ -104,6 +104,20 @@ def inertia_matrix(value) -> np.ndarray:
     return a
 
 
+def principal_moments(J: np.ndarray) -> np.ndarray:
+    """(3,) ascending eigenvalues of the symmetric J (3, 3), kg m^2, scaled by its largest
+    entry first (entries near 1e308 overflowed numpy's solver: a RuntimeWarning and NaN)."""
+    scale = float(np.abs(J).max())
+    return np.linalg.eigvalsh(J / scale) * scale if scale > 0 else np.zeros(3)
+
+
+def _listed(moments: np.ndarray) -> list[float]:
+    # rounded to 1e-12 of the largest (round-off zeros read 0), without np.round's
+    # scaling, which overflows near 1e308
+    scale = float(np.abs(moments).max()) or 1.0
+    return [float(f"{round(m / scale, 12) * scale:.10g}") + 0.0 for m in moments]
+
+
 def check_inertia(J: np.ndarray) -> None:
     """ValueError unless J (3, 3) can be an inertia tensor about the COM for some motion:
     finite, symmetric, no negative principal moment. A zero moment (a thin rod about its
@@ -116,10 +130,10 @@ def check_inertia(J: np.ndarray) -> None:
     scale = float(np.abs(J).max())
     if np.abs(J - J.T).max() > 1e-9 * scale:
         raise ValueError(f"inertia is not symmetric: {J.tolist()}")
-    moments = np.linalg.eigvalsh(J)
+    moments = principal_moments(J)
     if moments[0] < -1e-12 * scale:
         raise ValueError(f"inertia has a negative principal moment: "
-                         f"{np.round(moments, 12).tolist()} kg m^2 (a sign or a product of "
+                         f"{_listed(moments)} kg m^2 (a sign or a product of "
                          "inertia mixed up?)")
 
 
@@ -127,12 +141,12 @@ def inertia_note(J: np.ndarray) -> str | None:
     """What an accepted inertia (:func:`check_inertia`) is not, as one clause, or None: no
     moment about an axis, or principal moments no single rigid body has."""
     scale = float(np.abs(J).max())
-    moments = np.linalg.eigvalsh(J)
+    moments = principal_moments(J)
     if scale == 0.0 or moments[0] <= 1e-12 * scale:
-        return (f"principal moments {np.round(moments, 12).tolist()} kg m^2 give it no inertia "
+        return (f"principal moments {_listed(moments)} kg m^2 give it no inertia "
                 "about an axis (a thin rod, a point mass)")
     if moments[0] + moments[1] < moments[2] * (1.0 - 1e-9):
-        return (f"principal moments {np.round(moments, 12).tolist()} kg m^2 break the triangle "
+        return (f"principal moments {_listed(moments)} kg m^2 break the triangle "
                 "inequality I1 + I2 >= I3: no single rigid body has them (a reflected "
                 "drivetrain inertia about one axis)")
     return None

@@ -8,7 +8,8 @@ outcome:
 * ``ok``: accepted, and the mutation may be valid;
 * ``clear``: refused with a PipelineError; a ConfigError must start ``file:line:``;
 * ``silent``: accepted although the mutation makes it invalid for certain;
-* ``traceback``: any other exception (what a user would see as a traceback);
+* ``traceback``: any other exception (what a user would see as a traceback), numpy's
+  RuntimeWarnings included (lines on the user's terminal without file:line);
 * ``hang``: not done within the time limit.
 
 Only ``ok`` and ``clear`` are acceptable.
@@ -21,6 +22,7 @@ import random
 import re
 import signal
 import traceback
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -259,6 +261,9 @@ def check(mutant: Mutant, path: Path, kind: str, build_cache: Path | None) -> tu
         (path.parent / name).write_bytes(content)
     old = signal.signal(signal.SIGALRM, _alarm)
     signal.alarm(TIME_LIMIT)
+    caught = warnings.catch_warnings()
+    caught.__enter__()
+    warnings.simplefilter("error", RuntimeWarning)  # numpy's stray lines on the terminal
     try:
         if kind == "link":
             spec, lines = load_link_spec_lines(path)
@@ -281,6 +286,7 @@ def check(mutant: Mutant, path: Path, kind: str, build_cache: Path | None) -> tu
     except Exception:  # noqa: BLE001 - what the user would see as a traceback
         return "traceback", f"{mutant.op} at {mutant.path}: {traceback.format_exc()[-800:]}"
     finally:
+        caught.__exit__(None, None, None)
         signal.alarm(0)
         signal.signal(signal.SIGALRM, old)
     if mutant.must_fail:

@@ -31,11 +31,12 @@ def _bases(tmp_path: Path) -> tuple[list, Path]:
 
 def _run(tmp_path, n, seed):
     bases, root = _bases(tmp_path)
-    out = {}
+    out, left = {}, n
     for kind in ("workflow", "link"):
         folder = root / ("workflows" if kind == "workflow" else "meshes") / "fuzz"
         some = [b for b in bases if b[2] == kind]
-        k = n * len(some) // len(bases)
+        k = n * len(some) // len(bases) if kind == "workflow" else left  # n in all
+        left -= k
         res = fuzz.run(some, k, seed, folder, tmp_path / "links")
         for key, v in res.items():
             out.setdefault(key, []).extend(v)

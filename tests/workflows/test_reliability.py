@@ -417,12 +417,16 @@ def test_a_step_beyond_the_step_budget_is_refused_up_front(tmp_path, extra, expe
     ("[-0.1, 2.3, 2.3, 0, 0, 0]", "negative principal moment"),
     ("[0.003, 2.3, 2.3, 3.0, 0, 0]", "negative principal moment"),
     ("[[1, 0.1, 0], [0.2, 1, 0], [0, 0, 1]]", "not symmetric"),
+    ("[0.003, 2.3, 2.3, 0, 0, 1.0e+308]", "negative principal moment"),  # overflowed numpy
 ])
 def test_a_rigid_inertia_no_motion_can_have_is_refused(tmp_path, inertia, expect):
+    import warnings
+
     text = FOURBAR.replace("inertia: [0.003, 2.3, 2.3, 0, 0, 0]", f"inertia: {inertia}")
     assert text != FOURBAR
     path = _write(tmp_path, text)
-    with pytest.raises(ConfigError, match=expect) as exc:
+    with pytest.raises(ConfigError, match=expect) as exc, warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
         load_workflow(path)
     assert str(exc.value).startswith(f"{path}:") and "links.coupler" in str(exc.value)
 
