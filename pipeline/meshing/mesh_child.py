@@ -35,23 +35,29 @@ def _limit(memory: int | None, file_bytes: int) -> int:
     import gmsh  # noqa: F401
 
     base = _address_space()
-    if memory is not None:
+    if memory is not None and base:  # (no /proc: no address-space limit, the rest holds)
         resource.setrlimit(resource.RLIMIT_AS, (base + memory, base + memory))
     resource.setrlimit(resource.RLIMIT_FSIZE, (file_bytes, file_bytes))
     return base
 
 
 def _peak_address_space() -> int:
-    with open("/proc/self/status") as fh:
-        for line in fh:
-            if line.startswith("VmPeak:"):
-                return int(line.split()[1]) * 1024
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmPeak:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
     return 0
 
 
 def _address_space() -> int:
-    with open("/proc/self/statm") as fh:
-        return int(fh.read().split()[0]) * resource.getpagesize()
+    try:
+        with open("/proc/self/statm") as fh:
+            return int(fh.read().split()[0]) * resource.getpagesize()
+    except OSError:
+        return 0
 
 
 def main(folder: Path) -> int:
