@@ -181,6 +181,7 @@ class Simulator:
         #: accumulated error estimate (n,) at every output row (error_estimate), and the
         #: steppers at twice and at half the step that make it
         self._deviation = [np.zeros(cs.n)] if error_estimate else None
+        self._state_deviation = [np.zeros(len(self.system.state_names))]  # (nz,) alike
         self._unavailable = ""  # why the estimate was lost (a check run failed), if it was
         self._checks: dict[float, tuple] = {}
         q, v = cs.with_drivers(t0, q0, qd0)
@@ -190,6 +191,7 @@ class Simulator:
             raise SolverError(f"Simulator: the start cannot be integrated: {msg}")
         self._s = s
         self._size = np.abs(self._grid.rows[-1][1])  # (n,) largest |q| recorded
+        self._state_size = np.abs(self._grid.rows[-1][8])  # (nz,) largest |z| recorded
 
     # ------------------------------------------------------------------ reading
     @property
@@ -252,8 +254,10 @@ class Simulator:
         g.te, g.k = np.array([row[0] for row in g.rows]), len(g.rows)
         if self._deviation is not None:
             del self._deviation[len(g.rows):]
+            del self._state_deviation[len(g.rows):]
         del self._log[len(g.rows) - 1:]
         self._size = np.abs(np.array([row[1] for row in g.rows])).max(axis=0)
+        self._state_size = np.abs(np.array([row[8] for row in g.rows])).max(axis=0)
 
     # ------------------------------------------------------------------ stepping
     def step(self, dt: float, inputs: Mapping[str, float] | None = None) -> float:
@@ -314,6 +318,7 @@ class Simulator:
             raise SolverError(f"Simulator.step from t = {t0:.6g} s by {dt:g} s: {msg}")
         self._s, self._work = s, work
         self._size = np.maximum(self._size, np.abs(self._grid.rows[-1][1]))
+        self._state_size = np.maximum(self._state_size, np.abs(self._grid.rows[-1][8]))
         return self.t
 
     def _check_call(self, before: StepState, work: np.ndarray, t1: float) -> str | None:
@@ -343,6 +348,8 @@ class Simulator:
         scale = 1.0 if other > h else 2.0
         here = np.abs(self._grid.rows[-1][1] - grid.rows[-1][1]) * scale
         self._deviation.append(self._deviation[-1] + here)
+        here = np.abs(self._grid.rows[-1][8] - grid.rows[-1][8]) * scale
+        self._state_deviation.append(self._state_deviation[-1] + here)
         return None
 
     @property
@@ -352,7 +359,7 @@ class Simulator:
         run failed (the estimate is lost, module docstring). It costs as
         much after the millionth call as after the first: the summed errors only grow,
         so the largest is the last row's (``result()`` reports the same figure)."""
-        from pipeline.solver.step_error import tolerance
+        from pipeline.solver.step_error import state_tolerance, tolerance
 
         if self._deviation is None:
             return None
@@ -360,19 +367,26 @@ class Simulator:
         U = self._cs.U
         tol = tolerance(self._size, U, self.rtol, self.atol, mech.coordinate_units,
                         mech.modal_index)
-        scaled = self._deviation[-1][U] / tol
+        scaled = np.concatenate([
+            self._deviation[-1][U] / tol,
+            self._state_deviation[-1] / state_tolerance(
+                self._state_size, self.rtol, self.atol, self.system.state_scales())])
         if not np.all(np.isfinite(scaled)):
             return np.inf
         return float(scaled.max(initial=0.0))
 
-    def _estimate(self, r: SimulationResult, deviation=None) -> dict:
-        """The error estimate of r: ``deviation`` (k, n), default the calls' sum."""
-        from pipeline.solver.step_error import scaled_error
+    def _estimate(self, r: SimulationResult, deviation=None, states=None) -> dict:
+        """The error estimate of r: ``deviation`` (k, n) and ``states`` (k, nz), default
+        the calls' sums."""
+        from pipeline.solver.step_error import scaled_error, with_state_error
 
         mech = self.system.mechanism
-        deviation = np.array(self._deviation) if deviation is None else deviation
-        return scaled_error(r, deviation, self._cs.U, self.rtol, self.atol,
-                            mech.coordinate_units, mech.modal_index)
+        if deviation is None:
+            deviation, states = np.array(self._deviation), np.array(self._state_deviation)
+        out = scaled_error(r, deviation, self._cs.U, self.rtol, self.atol,
+                           mech.coordinate_units, mech.modal_index)
+        return with_state_error(out, r, states, self.rtol, self.atol,
+                                self.system.state_scales())
 
     # ------------------------------------------------------------------ results
     def result(self, *, replay: bool = False, limits=None) -> SimulationResult:
@@ -391,9 +405,12 @@ class Simulator:
             other = self._replay(0.5 * h if short else 2.0 * h)
             k = min(r.t.size, other.t.size)
             # as the calls' check: |q_h - q_h/2| is half the h run's first-order error
-            deviation = np.abs(r.q[:k] - other.q[:k]) * (2.0 if short else 1.0)
+            factor = 2.0 if short else 1.0
+            deviation = np.abs(r.q[:k] - other.q[:k]) * factor
+            states = np.abs(r.states[:k] - other.states[:k]) * factor
             how = "the calls replayed at " + ("half" if short else "twice") + " the step"
-            r = replace(r, step_stats={**r.step_stats, **self._estimate(r, deviation),
+            r = replace(r, step_stats={**r.step_stats,
+                                       **self._estimate(r, deviation, states),
                                        "error_seconds": time.perf_counter() - tic,
                                        "error_method": how})
         elif self._unavailable:

@@ -48,12 +48,29 @@ def fixed_step_error(r: SimulationResult, coarse: SimulationResult, U: np.ndarra
         return {"error_unavailable": "the run at twice the step has other output times"}
     out = scaled_error(r, np.abs(r.q[:k] - coarse.q[:k]), U, rtol, atol, unit, modal_index)
     if r.states.size and state_scales is not None:
-        tol = atol * np.asarray(state_scales) + rtol * np.abs(r.states).max(axis=0)
-        scaled = np.abs(r.states[:k] - coarse.states[:k]) / tol
-        i, j = np.unravel_index(int(np.argmax(scaled)), scaled.shape)
-        if not scaled[i, j] <= out["error_ratio"]:  # NaN too
-            out = {"error_ratio": float(scaled[i, j]), "error_coordinate": r.state_names[j],
-                   "error_time": float(r.t[i])}
+        out = with_state_error(out, r, np.abs(r.states[:k] - coarse.states[:k]), rtol, atol,
+                               state_scales)
+    return out
+
+
+def state_tolerance(size: np.ndarray, rtol: float, atol: float, state_scales) -> np.ndarray:
+    """(nz,) the error accepted in each element state: atol times its scale (its unit's
+    meaningful change) plus rtol times ``size``, its largest magnitude over the run."""
+    return atol * np.asarray(state_scales, dtype=float) + rtol * np.asarray(size, dtype=float)
+
+
+def with_state_error(out: dict, r: SimulationResult, deviation: np.ndarray, rtol: float,
+                     atol: float, state_scales) -> dict:
+    """``out`` (:func:`scaled_error`'s) or, where an element state's estimated error
+    ``deviation`` (k, nz) is the larger over its tolerance, that state's figures."""
+    if not deviation.size:
+        return out
+    scaled = deviation / state_tolerance(np.abs(r.states).max(axis=0), rtol, atol,
+                                         state_scales)
+    i, j = np.unravel_index(int(np.argmax(scaled)), scaled.shape)
+    if not scaled[i, j] <= out["error_ratio"]:  # NaN too
+        return {"error_ratio": float(scaled[i, j]), "error_coordinate": r.state_names[j],
+                "error_time": float(r.t[i])}
     return out
 
 
