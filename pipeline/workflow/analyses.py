@@ -194,6 +194,8 @@ def run_dynamic(m: Machine, a, path) -> dict:
              "method": r.method, "formulation": r.formulation}
     if "error_seconds" in r.step_stats:  # a fixed step's error estimate: what it cost
         extra["error_estimate_seconds"] = r.step_stats["error_seconds"]
+    if "error_ratio" in r.step_stats:  # the estimated error over the tolerance asked
+        extra["error_ratio"] = r.step_stats["error_ratio"]
     if r.multipliers.size:
         extra["multipliers"] = r.multipliers
     return {
