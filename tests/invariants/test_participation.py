@@ -125,6 +125,7 @@ def test_effective_mass_rule_keeps_the_same_modes_on_coarse_and_fine_meshes(tmp_
     assert kept_modes(link, ModeSelection(f_max=3.0), None) == (0, 1)  # the 2.9 Hz pair
 
 
+@pytest.mark.slow  # the full lift arm reduction (17 s)
 def test_plane_filter_keeps_the_same_modes_on_the_quick_and_full_lift_arm(tmp_path):
     """The lift arm's Craig-Bampton basis (4 pins besides the reference: 12 in-plane
     constraint modes; its 6 fixed-interface modes are all out of the plate's plane) has

@@ -35,6 +35,7 @@ def _parallelogram_error(redundant, t_end, **kw):
     return r, np.abs(r.q[:, idx] - theta[:r.t.size, None]).max(), theta
 
 
+@pytest.mark.slow  # four step sizes through singular positions (12 s)
 @pytest.mark.parametrize("redundant", [True, False])
 def test_index3_passes_singular_positions_at_second_order(redundant):
     """Fixed-step index-3 generalised-alpha follows the parallelogram branch through every

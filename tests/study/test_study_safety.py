@@ -95,6 +95,7 @@ def test_a_killed_client_loses_at_most_the_cases_it_was_running(tmp_path, links)
     assert [r["status"] for r in again.rows] == ["ok"] * len(ANGLES)
 
 
+@pytest.mark.slow  # three studies on a local cluster (12 s)
 def test_a_damaged_table_or_case_file_is_set_aside_and_rerun(tmp_path, links, caplog):
     study = _study(tmp_path, ANGLES[:3])
     out = tmp_path / "out"
@@ -125,6 +126,7 @@ def test_a_damaged_table_or_case_file_is_set_aside_and_rerun(tmp_path, links, ca
                                   [r["out:peak_heave"] for r in first.rows])
 
 
+@pytest.mark.slow  # waits out its worker timeout (12 s)
 def test_an_external_cluster_without_workers_ends_its_cases_lost(tmp_path, links):
     """The only worker of an external cluster dies: the study waited for ever, silently.
     Now the cases left come back 'lost' once the cluster has had no worker for the
