@@ -12,9 +12,8 @@ a linear least-squares problem in (z_K, lambda) (C: the loops' closure Jacobian)
 modal coordinates are left out: flexible links start undeformed, as given, and their
 modes ring from there, moving the joints with them through the mass matrix (a static
 start, ``static_equilibrium(..., z=z)``, deflects them under the held pressures). A
-balance the open
-states cannot meet (a motion no holding element resists) is a ConfigError naming the
-coordinates left unbalanced.
+balance the open states cannot meet (a motion no holding element resists) is a
+ConfigError naming the coordinates left unbalanced.
 """
 
 from __future__ import annotations

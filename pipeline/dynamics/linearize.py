@@ -22,7 +22,8 @@ equilibrium (q_eq, z_eq):
 so the oil columns' stiffness enters the frequencies (first-order form always). A state
 that only integrates the motion (the oil trapped behind a closed valve: its mass is
 conserved) gives a neutral direction, eigenvalue 0: it is a family of equilibria, not a
-vibration, and is left out of the modes.
+vibration, and is left out of the modes -- as is, in this form, any other eigenvalue 0
+(a coordinate nothing holds, which the form without states lists at frequency 0).
 
 Examples
 --------

@@ -15,6 +15,7 @@ import resource
 import sys
 from pathlib import Path
 
+from pipeline.core.resources import address_space, peak_address_space
 from pipeline.meshing.budget import as_error, check_mesh_size, save_mesh
 
 
@@ -34,30 +35,11 @@ def _limit(memory: int | None, file_bytes: int) -> int:
     # gmsh and OpenCASCADE map ~1 GB of address space before any work)
     import gmsh  # noqa: F401
 
-    base = _address_space()
+    base = address_space()
     if memory is not None and base:  # (no /proc: no address-space limit, the rest holds)
         resource.setrlimit(resource.RLIMIT_AS, (base + memory, base + memory))
     resource.setrlimit(resource.RLIMIT_FSIZE, (file_bytes, file_bytes))
     return base
-
-
-def _peak_address_space() -> int:
-    try:
-        with open("/proc/self/status") as fh:
-            for line in fh:
-                if line.startswith("VmPeak:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return 0
-
-
-def _address_space() -> int:
-    try:
-        with open("/proc/self/statm") as fh:
-            return int(fh.read().split()[0]) * resource.getpagesize()
-    except OSError:
-        return 0
 
 
 def main(folder: Path) -> int:
@@ -84,7 +66,7 @@ def main(folder: Path) -> int:
         # std::bad_alloc, or an empty gmsh error. A growing array that cannot grow holds
         # a third or more of what it asked for (old block + new block of twice its size),
         # so a peak beyond a quarter of the budget says the budget was the cause
-        used = _peak_address_space() - base
+        used = peak_address_space() - base
         status = as_error(exc, near_limit=memory is not None and used > 0.25 * memory)
     status["records"] = records.records
     tmp = folder / "status.json.tmp"

@@ -156,11 +156,11 @@ def run_dynamic(m: Machine, a, path) -> dict:
     if a.start != "initial":
         start = StaticStart() if a.start == "static" else a.start
         system = _released(m, start.loads, (*path, "start", "loads"))
-        # force elements' states held at their start values (a hold pressure found at the
-        # initial pose) deflect the flexible links; the run finds them again at the start
-        states = m.system.initial_states(m.q0, 0.0) if m.system.state_slices else None
+        # the states held at their start values deflect the flexible links; the run finds
+        # them again at the start
         r = static_equilibrium(m.system, m.q0,
-                               hold=_hold(m, start.hold, *path, "start", "hold"), z=states)
+                               hold=_hold(m, start.hold, *path, "start", "hold"),
+                               z=_start_states(m, 0.0))
         if not r.success:
             return {
                 "success": False,
@@ -234,12 +234,16 @@ def _released(m: Machine, loads, path):
     return replace(m.system, forces=tuple(f for f in m.system.forces if f.name not in loads))
 
 
+def _start_states(m: Machine, t: float):
+    """The force elements' states (cylinder pressures) at their start values, a hold
+    pressure found at the initial pose and time t, s; None without such elements."""
+    return m.system.initial_states(m.q0, t) if m.system.state_slices else None
+
+
 def run_linearised(m: Machine, a, path) -> dict:
     q = m.q0
     msg = ""
-    # force elements' states (cylinder pressures) stay at their start values (a hold
-    # pressure found at the initial pose): the statics and the linear model about them
-    states = m.system.initial_states(m.q0, a.t) if m.system.state_slices else None
+    states = _start_states(m, a.t)  # the statics and the linear model about them
     if a.start == "static":
         r = static_equilibrium(m.system, m.q0, t=a.t, hold=_hold(m, a.hold, *path, "hold"),
                                z=states)

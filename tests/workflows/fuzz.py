@@ -252,29 +252,15 @@ def _alarm(signum, frame):
 def check(mutant: Mutant, path: Path, kind: str, build_cache: Path | None) -> tuple[str, str]:
     """(outcome, detail) of one mutant written at ``path``; ``kind``: "workflow" or
     "link"; ``build_cache``: build rigid machines (their link cache) or None."""
-    from pipeline.workflow import build_machine, load_workflow
-    from pipeline.workflow.link_spec import load_link_spec_lines
-    from pipeline.workflow.run import build_cases, check_outputs
-
     path.write_text(mutant.text, encoding="utf-8")
     for name, content in mutant.files:
         (path.parent / name).write_bytes(content)
     old = signal.signal(signal.SIGALRM, _alarm)
     signal.alarm(TIME_LIMIT)
-    caught = warnings.catch_warnings()
-    caught.__enter__()
-    warnings.simplefilter("error", RuntimeWarning)  # numpy's stray lines on the terminal
     try:
-        if kind == "link":
-            spec, lines = load_link_spec_lines(path)
-            if mutant.op.startswith("mesh/"):  # mesh it, as pipeline reduce would first
-                _mesh(spec, path, lines)
-        else:
-            wf = load_workflow(path)
-            if build_cache is not None:  # as validate --build does
-                base = build_machine(wf, build_cache)
-                check_outputs(wf, base)
-                build_cases(wf, base, build_cache)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)  # numpy's stray terminal lines
+            _load(mutant, path, kind, build_cache)
     except _Timeout:
         return "hang", f"{mutant.op} at {mutant.path}: over {TIME_LIMIT} s"
     except PipelineError as exc:
@@ -286,12 +272,29 @@ def check(mutant: Mutant, path: Path, kind: str, build_cache: Path | None) -> tu
     except Exception:  # noqa: BLE001 - what the user would see as a traceback
         return "traceback", f"{mutant.op} at {mutant.path}: {traceback.format_exc()[-800:]}"
     finally:
-        caught.__exit__(None, None, None)
         signal.alarm(0)
         signal.signal(signal.SIGALRM, old)
     if mutant.must_fail:
         return "silent", f"{mutant.op} at {mutant.path}: accepted"
     return "ok", ""
+
+
+def _load(mutant: Mutant, path: Path, kind: str, build_cache: Path | None) -> None:
+    """Load (and mesh or build) the mutant at ``path`` as the commands would."""
+    from pipeline.workflow import build_machine, load_workflow
+    from pipeline.workflow.link_spec import load_link_spec_lines
+    from pipeline.workflow.run import build_cases, check_outputs
+
+    if kind == "link":
+        spec, lines = load_link_spec_lines(path)
+        if mutant.op.startswith("mesh/"):  # mesh it, as pipeline reduce would first
+            _mesh(spec, path, lines)
+    else:
+        wf = load_workflow(path)
+        if build_cache is not None:  # as validate --build does
+            base = build_machine(wf, build_cache)
+            check_outputs(wf, base)
+            build_cases(wf, base, build_cache)
 
 
 def _mesh(spec, path: Path, lines: dict) -> None:

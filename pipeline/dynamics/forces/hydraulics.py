@@ -46,8 +46,8 @@ The element is non-conservative: its power F s' enters the energy balance as wor
 the machine (the ``dissipated`` entry, with its sign: negative where the cylinder lifts).
 
 Not modelled (yet): the cushions' throttling near the ends (without end stops a stroke
-outside [0, stroke] is reported by the run's checks), cavitation (pressures below -1 bar gauge are reported), pressure-dependent
-bulk modulus, load-holding valves.
+outside [0, stroke] is reported by the run's checks), cavitation (pressures below -1 bar
+gauge are reported), pressure-dependent bulk modulus, load-holding valves.
 
 The scalar physics (flows, pressure rates, force) is written once, as compiled functions
 the numpy methods call too; only the geometry has its numpy and compiled forms, shared
@@ -259,11 +259,10 @@ class HydraulicCylinder(LineElement):
         return np.array(p, dtype=float)
 
     def state_scales(self) -> np.ndarray:
-        """A bar for a pressure; the spool's whole travel (and that per spool time)."""
-        rate = 1.0 / (self.spool_time_constant or 1.0 / (2 * math.pi * (
-            self.spool_frequency or 1.0)))
+        """A bar for a pressure; the spool's whole travel (and, second order, that per
+        1 / w_v)."""
         return np.array([PRESSURE_UNIT] * (2 + (self.pump_flow is not None))
-                        + [1.0, rate][:self.spool_order])
+                        + [1.0, 2 * math.pi * (self.spool_frequency or 0.0)][:self.spool_order])
 
     # ------------------------------------------------------------------ numpy
     def _force(self, system, tree, q, qd, t, z=None):
@@ -406,8 +405,9 @@ def pressure_rates(par, length, sd, pa, pb, psup, x, out):
     qa = par[_KV] * (qpa - un * _orifice(pa - pt, lam))
     qb = par[_KV] * (qpb - up * _orifice(pb - pt, lam))
     ql = par[_LEAK] * (pa - pb)
-    # a stroke beyond the ends (no end stop yet: the run's checks report it) must not
-    # empty a chamber: its volume is kept above a tenth of its dead volume
+    # a stroke beyond the ends (into the end stops, or without them: the run's checks
+    # report it) must not empty a chamber: its volume is kept above a tenth of its dead
+    # volume
     va = max(par[_VA0] + par[_AA] * s, 0.1 * par[_VA0])
     vb = max(par[_VB0] + par[_AB] * (par[_STROKE] - s), 0.1 * par[_VB0])
     out[0] = par[_BETA] / va * (qa - par[_AA] * sd - ql)
