@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pipeline.dynamics.forces.base import element_forces
 from pipeline.dynamics.gravity import gravity_force
 from pipeline.dynamics.mass_matrix import all_link_terms, mass_matrix
 from pipeline.dynamics.velocity_terms import velocity_terms
@@ -72,14 +73,9 @@ def _force_elements(system, tree, q, qd, t, z=None):
     n = system.mechanism.n
     Qf, Qnc = np.zeros(n), np.zeros(n)
     for f in system.forces:
-        args = (system, tree, q, qd, t, *system.states_of(f, z))
-        Q = np.asarray(f.generalized_force(*args), dtype=float)
+        Q, nc = element_forces(system, f, tree, q, qd, t, z)
         Qf += Q
-        if hasattr(f, "nonconservative_force"):  # ForceElement contract (forces/base.py)
-            if not f.conservative:
-                Qnc += np.asarray(f.nonconservative_force(*args), dtype=float)
-        elif not getattr(f, "conservative", False):  # duck-typed element: all of Q
-            Qnc += Q
+        Qnc += nc
     return Qf, Qnc
 
 

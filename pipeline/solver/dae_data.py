@@ -3,9 +3,8 @@
 Everything the constrained equations need besides time-dependent inputs: the compiled
 mechanism and masses, modal stiffness and damping, row weights, the driven (P) and integrated
 (U) coordinates, and the force elements in their compiled form
-(:mod:`pipeline.dynamics.forces.compiled`: every built-in element has one). A system with
-an element that has none (a user's own class) gets None from :func:`compile_dae`: the
-numpy step runs instead, and says so.
+(:mod:`pipeline.dynamics.forces.compiled`: every built-in element has one; a user's own
+element class is called back in Python from the same compiled step, and the log says so).
 """
 
 from __future__ import annotations
@@ -48,17 +47,16 @@ class CompiledDae:
     histories: tuple
 
 
-def compile_dae(system, U: np.ndarray, P: np.ndarray, warn: bool = True) -> CompiledDae | None:
-    """The flat data of ``system``, or None when a force element has no compiled form (and
-    the log says so, unless ``warn`` is False: a run that already said it)."""
+def compile_dae(system, U: np.ndarray, P: np.ndarray, warn: bool = True) -> CompiledDae:
+    """The flat data of ``system``; an element without a compiled form is logged (unless
+    ``warn`` is False: a run that already said it)."""
     mech = system.mechanism
-    packed = compile_forces(system)
-    if packed is None:
-        (logger.warning if warn else logger.debug)("force element(s) %s have no compiled form: the generalised-alpha "
-                       "steps run in numpy, about 30x slower (docs/force_elements.md)",
-                       uncompiled(system.forces))
-        return None
-    forces, histories = packed
+    python = uncompiled(system.forces)
+    if python:
+        (logger.info if warn else logger.debug)(
+            "force element(s) %s have no compiled form: the compiled step calls their "
+            "numpy methods back (docs/force_elements.md)", python)
+    forces, histories = compile_forces(system)
     K, D = system.modal_stiffness_damping
     return CompiledDae(
         mech.compiled, system.compiled_masses, np.ascontiguousarray(K),

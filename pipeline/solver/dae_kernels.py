@@ -1,7 +1,8 @@
-"""Compiled index-3 generalised-alpha steps (numba): the same mathematics as
-:class:`pipeline.solver.index3.Index3Stepper` and :class:`~pipeline.solver.constrained.
-ConstrainedSystem` (the numpy reference, tested equal), run as one machine-code call per
-stretch of steps.
+"""Compiled index-3 generalised-alpha steps (numba; the method: :mod:`pipeline.solver.index3`),
+the one implementation of its Newton iteration, run as one machine-code call per stretch
+of steps. The equations are those of :class:`~pipeline.solver.constrained.ConstrainedSystem`
+(the numpy reference, tested equal); the same step written in numpy is the oracle in
+``tests/solver/index3_numpy.py``.
 
 Why: a step of a small machine is a few hundred small-array operations (poses, mass matrix,
 closure rows, a saddle-point solve, Newton bookkeeping); in Python their call overhead is
@@ -210,7 +211,7 @@ def _powers(M, rhs, Qnc, C, gw, v, aP, U, P, eps):
 def step(q0, v0, qdd0, a0, lam0, z0, zd0, b0, h, qP, vP, aP, factor, par, unit, zunit, U, P,
          S, sinfo, kin, mass, K, D, g, w, frc):
     """One step of size h from (q0, v0, qdd0, a0, lam0) and the elements' states (z0, their
-    rates zd0, their acceleration-like variable b0) (index3.Index3Stepper.step; the states
+    rates zd0, their acceleration-like variable b0) (the method of index3; the states
     by first-order generalised-alpha, par[9:11] = its alpha_m and gamma, in the same Newton
     iteration: unknowns q_U and z, the states' residual z' - f(q, v, z) scaled by c_z).
 

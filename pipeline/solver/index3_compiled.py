@@ -1,10 +1,11 @@
-"""The index-3 generalised-alpha step as compiled calls (:mod:`pipeline.solver.dae_kernels`),
-with the interface of the numpy reference :class:`~pipeline.solver.index3.Index3Stepper`.
+"""The index-3 generalised-alpha step (:mod:`pipeline.solver.index3`) as compiled calls
+(:mod:`pipeline.solver.dae_kernels`, the one implementation of its Newton iteration; its
+numpy oracle is ``tests/solver/index3_numpy.py``).
 
-:func:`stepper` returns a :class:`CompiledStepper` when every force element of the system has
-a compiled form (:mod:`pipeline.solver.dae_data`), else the numpy stepper. Drivers and force
-histories are Python objects: they are evaluated here, once per step, and handed to the
-kernel as numbers. :meth:`CompiledStepper.march` runs a stretch of fixed steps in one call
+:func:`stepper` returns the :class:`CompiledStepper` of a system; a force element without a
+compiled form is called back from it (:mod:`pipeline.dynamics.forces.python_elements`).
+Drivers and force histories are Python objects: they are evaluated here, once per step, and
+handed to the kernel as numbers. :meth:`CompiledStepper.march` runs a stretch of fixed steps in one call
 (the driver values of every step tabulated first).
 """
 
@@ -12,13 +13,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.core.errors import ConfigError
 from pipeline.kinematics.partition import RANK_RTOL
 from pipeline.solver import dae_kernels as K
 from pipeline.solver.constrained import ConstrainedSystem
 from pipeline.solver.dae_data import CompiledDae, compile_dae, force_factors
 from pipeline.solver.generalized_alpha import coefficients, first_order_coefficients
-from pipeline.solver.index3 import Index3Stepper, StepOutcome, StepState, powers
+from pipeline.solver.index3 import StepOutcome, StepState, powers
 
 __all__ = ["CompiledStepper", "stepper"]
 
@@ -26,7 +26,23 @@ _WHY = {1: "newton", 2: "jump", 3: "evaluation"}
 
 
 class CompiledStepper:
-    """Same parameters and behaviour as :class:`Index3Stepper` (module docstring)."""
+    """Steps of the index-3 generalised-alpha method (:mod:`pipeline.solver.index3`).
+
+    Parameters
+    ----------
+    cs : ConstrainedSystem.
+    data : its flat data (:func:`~pipeline.solver.dae_data.compile_dae`).
+    rho_inf : spectral radius at infinite frequency, [0, 1].
+    newton_rtol, newton_atol : the Newton corrections dq must fall below
+        newton_atol * unit + newton_rtol * |q| per coordinate.
+    closure_tol : largest weighted closure residual accepted (dimensionless: m per length
+        scale, rad).
+    unit : (n,) coordinate scales (1 rad, the length scale for a length, the modal amplitude
+        that moves a frame by the length scale): the jump bound and atol are in these units.
+    jump : largest Newton correction (in ``unit``) accepted before the step is rejected as
+        leaving the predicted configuration (another assembly branch, a diverging Newton).
+    eps : regularisation of the constraint block (relative).
+    """
 
     def __init__(self, cs: ConstrainedSystem, data: CompiledDae, rho_inf=0.8,
                  newton_rtol=1e-8, newton_atol=1e-10, closure_tol=1e-10, unit=None, jump=0.1,
@@ -134,19 +150,7 @@ class CompiledStepper:
                             *self.args)
 
 
-def stepper(cs: ConstrainedSystem, warn: bool = True, **kw):
-    """A compiled stepper for ``cs`` when its force elements allow one, else the numpy
-    :class:`Index3Stepper` (same interface; it has no element states; ``warn``: log that
-    it is the numpy one)."""
-    data = compile_dae(cs.system, cs.U, cs.P, warn)
-    if data is None:
-        from pipeline.dynamics.forces.compiled import uncompiled
-
-        if cs.system.state_slices:
-            raise ConfigError(
-                f"force element(s) {uncompiled(cs.system.forces)} have no compiled form, "
-                f"and the elements with states of their own "
-                f"({', '.join(f.name for f, _ in cs.system.state_slices)}) are integrated by "
-                f"the compiled step only")
-        return Index3Stepper(cs, **kw)
-    return CompiledStepper(cs, data, **kw)
+def stepper(cs: ConstrainedSystem, warn: bool = True, **kw) -> CompiledStepper:
+    """The compiled stepper of ``cs`` (keywords: :class:`CompiledStepper`'s; ``warn``: log
+    the force elements called back in Python, if any)."""
+    return CompiledStepper(cs, compile_dae(cs.system, cs.U, cs.P, warn), **kw)

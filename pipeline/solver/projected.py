@@ -40,7 +40,7 @@ import numpy as np
 from pipeline.core.errors import PipelineError
 from pipeline.core.progress import progress_counter
 from pipeline.solver.constrained import REGULARISATION, ConstrainedSystem
-from pipeline.solver.index3_compiled import CompiledStepper, stepper
+from pipeline.solver.index3_compiled import stepper
 from pipeline.solver.index3_compiled import stepper as make_stepper
 from pipeline.solver.monitors import StallWatch
 from pipeline.solver.outputs import OutputGrid, same_time
@@ -75,8 +75,7 @@ class _Index1:
     def __init__(self, cs: ConstrainedSystem, eps: float = REGULARISATION):
         self.cs, self.count, self.eps = cs, 0, eps
         self.nU = cs.U.size
-        fast = stepper(cs)  # the compiled terms, when the force elements allow them
-        self.fast = fast if isinstance(fast, CompiledStepper) else None
+        self.fast = stepper(cs)  # the compiled terms
 
     def full(self, t, y):
         cs, nU = self.cs, self.nU
@@ -90,19 +89,10 @@ class _Index1:
             return np.full(y.shape, np.nan)  # rejects the step
         cs = self.cs
         q, v = self.full(t, y)
-        if self.fast is not None:
-            x, pd, pnc = self.fast.index1(t, q, v, self.eps)
-            if not np.all(np.isfinite(x)):
-                return np.full(y.shape, np.nan)
-            return np.concatenate([v[cs.U], x, [pd, pnc]])
-        try:
-            st = cs.evaluate(t, q, v)
-            qdd, lam = cs.accelerations(st, self.eps)
-        except (PipelineError, ArithmeticError, ValueError, np.linalg.LinAlgError):
+        x, pd, pnc = self.fast.index1(t, q, v, self.eps)
+        if not np.all(np.isfinite(x)):
             return np.full(y.shape, np.nan)
-        p_nc = float(st.terms.Q_nonconservative @ v)
-        p_d = float(cs.driver_forces(st, qdd, lam) @ v[cs.P]) if cs.P.size else 0.0
-        return np.concatenate([v[cs.U], qdd[cs.U], [p_d, -p_nc]])
+        return np.concatenate([v[cs.U], x, [pd, pnc]])
 
 
 def _project(cs: ConstrainedSystem, f: _Index1, t, y, unit, rtol, atol
@@ -112,17 +102,7 @@ def _project(cs: ConstrainedSystem, f: _Index1, t, y, unit, rtol, atol
     if not cs.m:
         return y, 0.0, 0.0, False
     q, v = f.full(t, y)
-    if f.fast is not None:
-        q1, v1 = f.fast.output(t, q, v)[:2]
-    else:
-        st = cs.evaluate(t, q, v)
-        c_err = float(np.abs(st.c).max())
-        vscale = float(np.abs(v).max(initial=0.0)) + 1.0
-        v_err = float(np.abs(st.C @ v).max()) / vscale
-        if c_err <= 1e-12 and v_err <= 1e-12:
-            return y, 0.0, 0.0, False
-        q1 = cs.project_positions(t, q)
-        v1 = cs.project_velocities(cs.evaluate(t, q1, v), v)
+    q1, v1 = f.fast.output(t, q, v)[:2]
     vscale = float(np.abs(v).max(initial=0.0)) + 1.0
     if np.abs((q1 - q)[cs.U] / unit[cs.U]).max(initial=0.0) <= 1e-14 and \
             np.abs((v1 - v)[cs.U]).max(initial=0.0) <= 1e-14 * vscale:
@@ -145,7 +125,7 @@ def run_projected(system, q0, qd0, t0, t1, te, solver_cls, name, *, rtol, atol,
     f = _Index1(cs)
     q, v = cs.with_drivers(t0, q0, qd0)
     y = np.concatenate([q[cs.U], v[cs.U], [0.0, 0.0]])
-    grid = OutputGrid(cs, te, None if f.fast is None else f.fast.output)
+    grid = OutputGrid(cs, te, f.fast.output)
     steps = rejected = restarts = capped = 0
     msg = None
     stall = StallWatch(t1 - t0)

@@ -7,6 +7,7 @@ link with second-order frames and mass moments (geometric stiffening)."""
 from __future__ import annotations
 
 import sys
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +18,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import andrews as A
 import excavator
 from eom_models import flexible_double_pendulum, flexible_four_bar
+from index3_numpy import Index3Stepper
 
+from pipeline.core.errors import ConfigError
 from pipeline.dynamics import System
 from pipeline.dynamics.forces import (
     FORCES,
@@ -30,12 +33,12 @@ from pipeline.dynamics.forces import (
     TableSpringDamper,
     Torque,
 )
+from pipeline.dynamics.forces.compiled import uncompiled
 from pipeline.kinematics import assemble
 from pipeline.kinematics.drivers import Ramp, SmoothStep
 from pipeline.kinematics.initial import initial_positions, initial_velocities
 from pipeline.solver import simulate
 from pipeline.solver.constrained import ConstrainedSystem
-from pipeline.solver.index3 import Index3Stepper
 from pipeline.solver.index3_compiled import CompiledStepper, stepper
 from pipeline.solver.outputs import OutputGrid
 
@@ -172,28 +175,129 @@ def test_every_force_element_class_has_a_compiled_form():
     assert len(classes) == len(set(classes)) and set(FORCES.values()) <= set(classes)
 
 
-def test_a_users_own_element_takes_the_numpy_step_and_says_so(caplog):
-    from dataclasses import dataclass
+def _in_python(element):
+    """The same element as a class of its own without a compiled form: its numpy methods
+    are called back from the compiled step."""
+    cls = type(element)
+    twin = type(f"Python{cls.__name__}", (cls,), {"__module__": __name__})
+    return twin(**{f.name: getattr(element, f.name) for f in fields(element)})
 
-    @dataclass(frozen=True)
-    class Viscous(ForceElement):
-        name: str
 
-        def _force(self, system, tree, q, qd, t):
-            return -0.3 * qd
+def _step_both(a_system, b_system, q0, qd0, h, steps, z=None):
+    kw = {"rho_inf": 0.8, "newton_rtol": 1e-9, "newton_atol": 1e-11,
+          "unit": a_system.mechanism.coordinate_units}
+    a_run = stepper(ConstrainedSystem(a_system), **kw)
+    b_run = stepper(ConstrainedSystem(b_system), **kw)
+    a, b = a_run.start(0.0, q0, qd0, z), b_run.start(0.0, q0, qd0, z)
+    for _ in range(steps):
+        oa, ob = a_run.step(a, h), b_run.step(b, h)
+        assert oa.iterations == ob.iterations and oa.why == ob.why == ""
+        a, b = oa.state, ob.state
+    return a, b, a_run, b_run
 
-        def loads(self, system, tree, q, qd, t):
-            return ()
 
+def test_elements_called_back_in_python_step_as_their_compiled_kernels():
+    """Every compiled kind, each also as a class without a compiled form: the compiled step
+    calling the numpy methods back gives the compiled kernels' steps and energies."""
+    system, q0, qd0 = _every_kind()
+    twins = System(system.mechanism, system.bodies, system.gravity,
+                   forces=tuple(_in_python(f) for f in system.forces))
+    assert len(uncompiled(twins.forces)) == len(system.forces)
+    a, b, fast, slow = _step_both(system, twins, q0, qd0, 2e-3, 30)
+    for x, y, tol in ((a.q, b.q, 1e-12), (a.v, b.v, 1e-11), (a.lam, b.lam, 1e-9),
+                      (a.powers, b.powers, 1e-10)):
+        assert np.abs(x - y).max() <= tol * (1.0 + np.abs(x).max())
+    ea, eb = fast.output(a.t, a.q, a.v)[5], slow.output(b.t, b.q, b.v)[5]
+    for k in ea:
+        assert abs(ea[k] - eb[k]) <= 1e-10 * (1.0 + abs(ea[k])), k
+
+
+def test_an_element_with_states_called_back_in_python_integrates_them_alike():
+    """The hydraulic cylinder (two chamber pressures) as a class without a compiled form:
+    its pressures and the motion step as the compiled cylinder's."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from test_hydraulic_cylinder import PA0, PB0, S0, _lift
+
+    command = SmoothStep(0.0, 0.05, 0.0, 0.6)
+    system, cyl = _lift(command)
+    twins = System(system.mechanism, system.bodies, system.gravity,
+                   forces=(_in_python(cyl),))
+    q0, z0 = np.array([S0]), np.array([PA0, PB0])
+    a, b, _, _ = _step_both(system, twins, q0, np.zeros(1), 1e-3, 60, z0)
+    assert a.q[0] - S0 > 1e-3  # it moved
+    assert np.abs(a.q - b.q).max() <= 1e-13 and np.abs(a.z - b.z).max() <= 1e-8 * PA0
+    # a whole run, its error estimate included, is the compiled cylinder's
+    ra, rb = (simulate(x, q0, np.zeros(1), (0.0, 0.06), np.linspace(0, 0.06, 7),
+                       method="generalized_alpha", step=1e-3, progress=False, rtol=1e-4,
+                       atol=1e-7) for x in (system, twins))
+    assert rb.state_names == ("lift.p_a", "lift.p_b")
+    assert (ra.verdict, ra.message) == (rb.verdict, rb.message)
+    assert np.abs(ra.q - rb.q).max() < 1e-13 and np.abs(ra.states - rb.states).max() < 1e-6
+
+
+@dataclass(frozen=True)
+class Viscous(ForceElement):
+    """A user's element: viscous drag c q' on every coordinate."""
+    name: str
+    c: float = 0.3
+    fail_after: float = np.inf  # s: raise ValueError from then on (a failed evaluation)
+    refuse: bool = False  # raise ConfigError (not an evaluation failure)
+
+    def _force(self, system, tree, q, qd, t):
+        if t > self.fail_after:
+            raise ValueError("no drag table beyond this time")
+        if self.refuse:
+            raise ConfigError(f"force element '{self.name}': refused")
+        return -self.c * qd
+
+    def loads(self, system, tree, q, qd, t):
+        return ()
+
+
+def test_a_users_own_element_runs_in_the_compiled_step_and_says_so(caplog):
     s, q0, qd0 = _flexible_four_bar()
     s2 = System(s.mechanism, s.bodies, s.gravity, forces=(Viscous("drag"),))
-    with caplog.at_level("WARNING", logger="pipeline.solver.dae_data"):
-        assert isinstance(stepper(ConstrainedSystem(s2)), Index3Stepper)
+    with caplog.at_level("INFO", logger="pipeline.solver.dae_data"):
+        assert isinstance(stepper(ConstrainedSystem(s2)), CompiledStepper)
     assert "['drag'] have no compiled form" in caplog.text
     caplog.clear()
-    with caplog.at_level("WARNING", logger="pipeline.solver.dae_data"):
+    with caplog.at_level("INFO", logger="pipeline.solver.dae_data"):
         r = simulate(s2, q0, qd0, (0.0, 0.05), method="generalized_alpha", step=1e-3,
                      progress=False, rtol=1e-4, atol=1e-6)  # the error a 1 ms step meets
     # once per run: its check at twice the step does not say it again
     assert caplog.text.count("have no compiled form") == 1
-    assert r.success
+    assert r.verdict == "ok", r.report
+    # the drag dissipates: the energy balance carries its power
+    assert r.energies["dissipated"][-1] > 1e-3
+
+
+def test_a_users_element_that_fails_to_evaluate_fails_the_step_and_other_errors_propagate():
+    s, q0, qd0 = _flexible_four_bar()
+    failing = System(s.mechanism, s.bodies, s.gravity,
+                     forces=(Viscous("drag", fail_after=0.02),))
+    r = simulate(failing, q0, qd0, (0.0, 0.05), method="generalized_alpha", step=1e-3,
+                 progress=False, rtol=1e-4, atol=1e-6)
+    assert r.verdict == "partial" and 0.019 < r.t[-1] <= 0.021, (r.verdict, r.t[-1])
+    assert "could not be evaluated" in r.message, r.message
+    refusing = System(s.mechanism, s.bodies, s.gravity, forces=(Viscous("drag", refuse=True),))
+    with pytest.raises(ConfigError, match="'drag': refused"):
+        stepper(ConstrainedSystem(refusing)).index1(0.0, q0, qd0, 1e-10)
+    r = simulate(refusing, q0, qd0, (0.0, 0.05), method="generalized_alpha", step=1e-3,
+                 progress=False)
+    assert r.verdict == "partial" and "force element 'drag': refused" in r.message
+
+
+def test_a_callback_entry_lives_as_long_as_its_compiled_data():
+    import gc
+
+    from pipeline.dynamics.forces import python_elements as P
+
+    s, _, _ = _flexible_four_bar()
+    s2 = System(s.mechanism, s.bodies, s.gravity, forces=(Viscous("drag"),))
+    before = len(P._LIVE)
+    run = stepper(ConstrainedSystem(s2))
+    key = int(run.data.forces.ints[0, 0])
+    assert run.data.forces.kind[0] == P.PYTHON_KIND and key in P._LIVE
+    del run
+    gc.collect()
+    assert key not in P._LIVE and len(P._LIVE) == before

@@ -54,8 +54,9 @@ import numpy as np
 from pipeline.core.errors import ConfigError
 from pipeline.kinematics.poses import step_local, step_value
 
-__all__ = ["ForceElement", "LineElement", "Load", "MarkerPoint", "check_coordinate", "check_marker", "marker_point",
-           "marker_pose", "marker_twist", "unit_jacobian"]
+__all__ = ["ForceElement", "LineElement", "Load", "MarkerPoint", "check_coordinate",
+           "check_marker", "element_forces", "marker_point", "marker_pose", "marker_twist",
+           "unit_jacobian"]
 
 
 @dataclass(frozen=True)
@@ -226,6 +227,20 @@ class ForceElement:
 
     def _force(self, system, tree, q, qd, t):  # pragma: no cover - abstract
         raise NotImplementedError
+
+
+def element_forces(system, f, tree, q, qd, t: float, z=None) -> tuple[np.ndarray, np.ndarray]:
+    """(Q (n,), its non-conservative part (n,)) of force element ``f`` at (q, qd, t) and
+    the system's element states z (nz,) or None (an analysis without them). A duck-typed
+    element (no ``nonconservative_force``) is non-conservative unless it says otherwise."""
+    args = (system, tree, q, qd, t, *system.states_of(f, z))
+    Q = np.asarray(f.generalized_force(*args), dtype=float)
+    if hasattr(f, "nonconservative_force"):
+        Qnc = (np.zeros_like(Q) if f.conservative
+               else np.asarray(f.nonconservative_force(*args), dtype=float))
+    else:
+        Qnc = np.zeros_like(Q) if getattr(f, "conservative", False) else Q
+    return Q, Qnc
 
 
 class LineElement(ForceElement):

@@ -7,19 +7,21 @@ the flat data) next to its numpy methods, and the module defines its compiled ke
 kind adds its class with ``KIND``, ``pack`` and its two kernels in its module (three with
 states of its own: their rates), and one branch in each dispatcher (numba calls compiled
 functions only by name);
-``tests/solver/test_compiled_step.py`` fails for an element class without them. An
-element without a compiled form (a user's own class) runs on the numpy step, and the run
-says so.
+``tests/solver/test_compiled_step.py`` fails for a built-in element class without them.
+An element without a compiled form (a user's own class) is packed as
+:data:`~pipeline.dynamics.forces.python_elements.PYTHON_KIND`: the dispatchers call its
+numpy methods back (:mod:`.python_elements`), inside the same compiled step.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, objmode
 
 from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
 from pipeline.dynamics.forces import hydraulics as H
 from pipeline.dynamics.forces import loads as L
+from pipeline.dynamics.forces import python_elements as P
 from pipeline.dynamics.forces import springs as S
 from pipeline.dynamics.forces.loads import history_value
 from pipeline.dynamics.forces.markers import ForceData, MarkerTable
@@ -36,6 +38,7 @@ FOLLOWER_FORCE = L.FollowerForce.KIND
 LINE_FORCE = L.LineForce.KIND
 TORQUE = L.Torque.KIND
 HYDRAULIC_CYLINDER = H.HydraulicCylinder.KIND
+PYTHON_KIND = P.PYTHON_KIND
 
 #: kind -> (element classes, force kernel, potential kernel[, state-rate kernel]): an
 #: element with states of its own (contract rule 7) has its rates' kernel, and its force
@@ -61,17 +64,24 @@ def uncompiled(forces) -> list[str]:
             if type(f) not in KERNELS.get(getattr(type(f), "KIND", None), ((),))[0]]
 
 
-def compile_forces(system) -> tuple[ForceData, tuple] | None:
-    """(the flat data of ``system.forces``, each element's history or None), or None when
-    an element has no compiled form."""
+def compile_forces(system) -> tuple[ForceData, tuple]:
+    """(the flat data of ``system.forces``, each element's history, None, or
+    :data:`~.python_elements.TIME` for an element without a compiled form)."""
     mech = system.mechanism
     markers = MarkerTable(mech)
     kinds, ints, pars, cons, tables, hist = [], [], [], [], [], []
     rows = 0
-    if uncompiled(system.forces):
-        return None  # a user's element: the numpy step
     offsets = {id(f): sl.start for f, sl in system.state_slices}
+    python = []  # (row, element) of the elements evaluated by their numpy methods
     for f in system.forces:
+        if type(f) not in KERNELS.get(getattr(type(f), "KIND", None), ((),))[0]:
+            python.append((len(kinds), f))
+            kinds.append(PYTHON_KIND)
+            ints.append([0, 0, 0, 0, offsets.get(id(f), -1)])
+            pars.append([])
+            cons.append(bool(getattr(f, "conservative", False)))
+            hist.append(P.TIME)
+            continue
         i, p, table = f.pack(mech, markers)
         if table is not None:
             i = [i[0], i[1], rows, len(table)]
@@ -90,6 +100,8 @@ def compile_forces(system) -> tuple[ForceData, tuple] | None:
     data = ForceData(np.array(kinds, dtype=np.int64).reshape(-1),
                      np.array(ints, dtype=np.int64).reshape(-1, 5), par,
                      np.array(cons, dtype=np.bool_).reshape(-1), table, *markers.arrays())
+    for row, f in python:
+        data.ints[row, 0] = P.register(system, f, data.ints)
     return data, tuple(hist)
 
 
@@ -98,7 +110,9 @@ def force_factors(histories: tuple, times: np.ndarray) -> np.ndarray:
     times = np.asarray(times, dtype=float).reshape(-1)
     out = np.ones((times.size, len(histories)))
     for j, h in enumerate(histories):
-        if h is not None:
+        if h is P.TIME:
+            out[:, j] = times
+        elif h is not None:
             out[:, j] = [history_value(h, float(x), "history") for x in times]
     return out
 
@@ -128,6 +142,10 @@ def generalized_forces(q, v, z, A, dA, factor, d, Q, Qnc):
             L.torque(e, q, v, A, dA, factor, d, Q, Qnc)
         elif kind == HYDRAULIC_CYLINDER:
             H.cylinder_force(e, q, v, z, A, dA, factor, d, Q, Qnc)
+        elif kind == PYTHON_KIND:
+            key, t = d.ints[e, 0], factor[e]
+            with objmode():
+                P.element_force(key, q, v, z, A, dA, t, Q, Qnc)
 
 
 @njit(cache=True)
@@ -136,6 +154,10 @@ def state_rates(q, v, z, A, dA, factor, d, zd):
     for e in range(d.kind.shape[0]):
         if d.kind[e] == HYDRAULIC_CYLINDER:
             H.cylinder_rates(e, q, v, z, A, dA, factor, d, zd)
+        elif d.kind[e] == PYTHON_KIND and d.ints[e, 4] >= 0:
+            key, t = d.ints[e, 0], factor[e]
+            with objmode():
+                P.element_rates(key, q, v, z, A, dA, t, zd)
 
 
 @njit(cache=True)
@@ -156,4 +178,9 @@ def potential(q, A, dA, d):
             V += S.table_spring_potential(e, q, A, dA, d)
         elif kind == LINE_FORCE:
             V += L.line_potential(e, q, A, dA, d)
+        elif kind == PYTHON_KIND:
+            key = d.ints[e, 0]
+            with objmode(x="float64"):
+                x = P.element_potential(key, q, A, dA)
+            V += x
     return V
