@@ -38,48 +38,144 @@ Workflows and studies
     :func:`load_workflow`, :func:`build_machine`, :func:`run_workflow`, :func:`run_study`
     (mode-truncation and design studies on Dask, ``docs/studies.md``).
 
-Importing this module is cheap: gmsh, scikit-fem and pyvista load only when a function
-that needs them runs.
+Importing this module is cheap (no numpy, scipy or numba yet): each name is imported from
+its home module on first use (PEP 562), and gmsh, scikit-fem and pyvista load only when a
+function that needs them runs. ``tests/bench/test_bench_import.py`` measures it.
 """
 
 from __future__ import annotations
 
+import importlib
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from pipeline.dynamics import (
-    BodyMass,
-    System,
-    body_from_reduced,
-    energies,
-    kinetostatics,
-    link_from_reduced,
-    marker_motion,
-    static_equilibrium,
-    vibration_modes,
-)
-from pipeline.dynamics.forces.hydraulics import HydraulicCylinder
-from pipeline.dynamics.forces.loads import ForceCylinder, JointForce, PointForce, Torque
-from pipeline.dynamics.forces.springs import JointSpringDamper, SpringDamper
-from pipeline.fem.stress import principal_stresses, von_mises
-from pipeline.invariants.participation import effective_mass_fractions
-from pipeline.invariants.reduced_link import ReducedLink
-from pipeline.kinematics import JOINTS, Joint, build_mechanism, dof_report, rigid_link, sweep
-from pipeline.kinematics.driver_base import Constant
-from pipeline.kinematics.driver_table import Table
-from pipeline.kinematics.drivers import Harmonic, Ramp, SmoothStep
-from pipeline.kinematics.initial import initial_positions
-from pipeline.post.plots import Curve, Panel, plot_panels
-from pipeline.post.render import render_modes
-from pipeline.post.scene import Picture, Style, animate_machine, render_machine, render_positions
-from pipeline.post.shapes import LinkShape, shape_from_reduced
-from pipeline.post.vtk_series import write_vtk_series
-from pipeline.solver import Limits, SimulationResult, simulate
-from pipeline.solver.simulator import Simulator, SimulatorState
-from pipeline.workflow import build_machine, load_workflow, run_workflow
-from pipeline.workflow.build import kept_modes
-from pipeline.workflow.link_spec import load_link_spec
-from pipeline.workflow.outputs import machine_shapes
-from pipeline.workflow.series import marker_positions, series
+#: public name -> the module that defines it
+_HOMES = {
+    "BodyMass": "pipeline.dynamics",
+    "System": "pipeline.dynamics",
+    "body_from_reduced": "pipeline.dynamics",
+    "energies": "pipeline.dynamics",
+    "kinetostatics": "pipeline.dynamics",
+    "link_from_reduced": "pipeline.dynamics",
+    "marker_motion": "pipeline.dynamics",
+    "static_equilibrium": "pipeline.dynamics",
+    "vibration_modes": "pipeline.dynamics",
+    "HydraulicCylinder": "pipeline.dynamics.forces.hydraulics",
+    "ForceCylinder": "pipeline.dynamics.forces.loads",
+    "JointForce": "pipeline.dynamics.forces.loads",
+    "PointForce": "pipeline.dynamics.forces.loads",
+    "Torque": "pipeline.dynamics.forces.loads",
+    "JointSpringDamper": "pipeline.dynamics.forces.springs",
+    "SpringDamper": "pipeline.dynamics.forces.springs",
+    "principal_stresses": "pipeline.fem.stress",
+    "von_mises": "pipeline.fem.stress",
+    "effective_mass_fractions": "pipeline.invariants.participation",
+    "ReducedLink": "pipeline.invariants.reduced_link",
+    "JOINTS": "pipeline.kinematics",
+    "Joint": "pipeline.kinematics",
+    "build_mechanism": "pipeline.kinematics",
+    "dof_report": "pipeline.kinematics",
+    "rigid_link": "pipeline.kinematics",
+    "sweep": "pipeline.kinematics",
+    "Constant": "pipeline.kinematics.driver_base",
+    "Table": "pipeline.kinematics.driver_table",
+    "Harmonic": "pipeline.kinematics.drivers",
+    "Ramp": "pipeline.kinematics.drivers",
+    "SmoothStep": "pipeline.kinematics.drivers",
+    "initial_positions": "pipeline.kinematics.initial",
+    "Curve": "pipeline.post.plots",
+    "Panel": "pipeline.post.plots",
+    "plot_panels": "pipeline.post.plots",
+    "render_modes": "pipeline.post.render",
+    "Picture": "pipeline.post.scene",
+    "Style": "pipeline.post.scene",
+    "animate_machine": "pipeline.post.scene",
+    "render_machine": "pipeline.post.scene",
+    "render_positions": "pipeline.post.scene",
+    "LinkShape": "pipeline.post.shapes",
+    "shape_from_reduced": "pipeline.post.shapes",
+    "write_vtk_series": "pipeline.post.vtk_series",
+    "Limits": "pipeline.solver",
+    "SimulationResult": "pipeline.solver",
+    "simulate": "pipeline.solver",
+    "Simulator": "pipeline.solver.simulator",
+    "SimulatorState": "pipeline.solver.simulator",
+    "build_machine": "pipeline.workflow",
+    "load_workflow": "pipeline.workflow",
+    "run_workflow": "pipeline.workflow",
+    "kept_modes": "pipeline.workflow.build",
+    "load_link_spec": "pipeline.workflow.link_spec",
+    "machine_shapes": "pipeline.workflow.outputs",
+    "marker_positions": "pipeline.workflow.series",
+    "series": "pipeline.workflow.series",
+}
+
+if TYPE_CHECKING:  # what the names are, for readers and type checkers
+    from pipeline.dynamics import (
+        BodyMass,
+        System,
+        body_from_reduced,
+        energies,
+        kinetostatics,
+        link_from_reduced,
+        marker_motion,
+        static_equilibrium,
+        vibration_modes,
+    )
+    from pipeline.dynamics.forces.hydraulics import HydraulicCylinder
+    from pipeline.dynamics.forces.loads import (
+        ForceCylinder,
+        JointForce,
+        PointForce,
+        Torque,
+    )
+    from pipeline.dynamics.forces.springs import JointSpringDamper, SpringDamper
+    from pipeline.fem.stress import principal_stresses, von_mises
+    from pipeline.invariants.participation import effective_mass_fractions
+    from pipeline.invariants.reduced_link import ReducedLink
+    from pipeline.kinematics import (
+        JOINTS,
+        Joint,
+        build_mechanism,
+        dof_report,
+        rigid_link,
+        sweep,
+    )
+    from pipeline.kinematics.driver_base import Constant
+    from pipeline.kinematics.driver_table import Table
+    from pipeline.kinematics.drivers import Harmonic, Ramp, SmoothStep
+    from pipeline.kinematics.initial import initial_positions
+    from pipeline.post.plots import Curve, Panel, plot_panels
+    from pipeline.post.render import render_modes
+    from pipeline.post.scene import (
+        Picture,
+        Style,
+        animate_machine,
+        render_machine,
+        render_positions,
+    )
+    from pipeline.post.shapes import LinkShape, shape_from_reduced
+    from pipeline.post.vtk_series import write_vtk_series
+    from pipeline.solver import Limits, SimulationResult, simulate
+    from pipeline.solver.simulator import Simulator, SimulatorState
+    from pipeline.workflow import build_machine, load_workflow, run_workflow
+    from pipeline.workflow.build import kept_modes
+    from pipeline.workflow.link_spec import load_link_spec
+    from pipeline.workflow.outputs import machine_shapes
+    from pipeline.workflow.series import marker_positions, series
+
+
+def __getattr__(name: str):
+    home = _HOMES.get(name)
+    if home is None:
+        raise AttributeError(f"module 'pipeline.api' has no attribute {name!r}")
+    value = getattr(importlib.import_module(home), name)
+    globals()[name] = value  # found once: later lookups are plain attribute reads
+    return value
+
+
+def __dir__():
+    return sorted(__all__)
 
 
 def reduce_link(spec: str | Path, cache_dir: str | Path = "output/links",
@@ -97,6 +193,7 @@ def reduce_link(spec: str | Path, cache_dir: str | Path = "output/links",
         A bad spec: file:line: field: what was expected.
     """
     from pipeline.workflow.link_build import reduce_spec
+    from pipeline.workflow.link_spec import load_link_spec
 
     spec = Path(spec)
     link, _ = reduce_spec(load_link_spec(spec), spec.parent, Path(cache_dir), rebuild)
