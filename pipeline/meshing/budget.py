@@ -113,12 +113,10 @@ def mesh_in_child(geometry: SolidGeometry, name: str, options: Mapping[str, floa
         for record in status.get("records", []):
             logging.getLogger(record["name"]).log(record["level"], "%s", record["message"])
         if proc.returncode < 0 or status.get("outcome") is None:
-            raise MeshError(f"{where}: {_death(proc.returncode, memory, file_bytes)}"
-                            f"{_tail(folder / 'messages.txt')}")
+            raise MeshError(_no_result(where, proc.returncode, memory, file_bytes,
+                                       _tail(folder / "messages.txt")))
         if status["outcome"] == "memory":
-            raise MeshError(f"{where}: meshing ran out of its memory budget of "
-                            f"{_gb(memory)} GB: coarsen mesh_size, or raise "
-                            "geometry.memory_limit if the machine has more")
+            raise MeshError(_out_of_memory(where, memory))
         if status["outcome"] == "error":
             raise _ERRORS.get(status["kind"], MeshError)(status["message"])
         result = folder / "mesh.npz"
@@ -215,6 +213,20 @@ def _read_status(path: Path) -> dict[str, Any]:
         return json.loads(path.read_text())
     except (OSError, ValueError):
         return {}
+
+
+def _out_of_memory(where: str, memory: int) -> str:
+    return (f"{where}: meshing ran out of its memory budget of {_gb(memory)} GB: coarsen "
+            "mesh_size, or raise geometry.memory_limit if the machine has more")
+
+
+def _no_result(where: str, code: int, memory: int | None, file_bytes: int, tail: str) -> str:
+    """Why a meshing process that wrote no result ended (exit code or -signal ``code``; the
+    ``tail`` of its messages)."""
+    if memory is not None and code > 0 and tail.rstrip().endswith("MemoryError"):
+        # its own last words failed for want of memory: the budget again
+        return _out_of_memory(where, memory)
+    return f"{where}: {_death(code, memory, file_bytes)}{tail}"
 
 
 def _death(code: int, memory: int | None, file_bytes: int) -> str:

@@ -66,8 +66,11 @@ def main(folder: Path) -> int:
         # std::bad_alloc, or an empty gmsh error. A growing array that cannot grow holds
         # a third or more of what it asked for (old block + new block of twice its size),
         # so a peak beyond a quarter of the budget says the budget was the cause
-        used = peak_address_space() - base
-        status = as_error(exc, near_limit=memory is not None and used > 0.25 * memory)
+        try:
+            near = memory is not None and peak_address_space() - base > 0.25 * memory
+        except MemoryError:  # not even /proc's few lines fit: the budget is spent
+            near = memory is not None
+        status = as_error(exc, near_limit=near)
     status["records"] = records.records
     tmp = folder / "status.json.tmp"
     tmp.write_text(json.dumps(status))

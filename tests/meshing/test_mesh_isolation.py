@@ -57,6 +57,22 @@ def test_a_geo_loop_with_an_expression_bound_is_stopped_at_the_time_limit(tmp_pa
     assert time.monotonic() - t0 < 30.0
 
 
+def test_a_child_whose_last_words_fail_for_memory_names_the_budget():
+    """Seen in a full run: the child ran out of memory in its own error handler (reading
+    /proc) and ended with exit code 1 and a MemoryError traceback instead of a status."""
+    from pipeline.meshing.budget import _no_result
+
+    tail = ("; its last messages:            ^^^^^ |   File \"pipeline/core/resources.py\", "
+            "line 17, in _kib_field |     for line in fh: | MemoryError")
+    assert _no_result("link 'greedy'", 1, 2**30 // 10, 2**30, tail) == (
+        "link 'greedy': meshing ran out of its memory budget of 0.1 GB: coarsen mesh_size, "
+        "or raise geometry.memory_limit if the machine has more")
+    # without a budget, or for another failure, the exit and the messages as they were
+    assert _no_result("link 'x'", 1, None, 2**30, tail).startswith(
+        "link 'x': the meshing process ended with exit code 1 without a result; its last")
+    assert "SIGSEGV" in _no_result("link 'x'", -11, 2**30, 2**30, "")
+
+
 def test_a_script_that_meshes_itself_beyond_the_memory_budget_is_stopped(tmp_path):
     """The script meshes a 1 m box at 2 mm itself (some 800 million tetrahedra) before the
     budget estimate can be asked; the memory limit stops it with one line."""
