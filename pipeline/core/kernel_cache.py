@@ -21,7 +21,8 @@ __all__ = ["KERNEL_MODULES", "check"]
 KERNEL_MODULES = ("kinematics/compiled.py", "dynamics/compiled.py",
                   "dynamics/forces/markers.py", "dynamics/forces/springs.py",
                   "dynamics/forces/loads.py", "dynamics/forces/hydraulics.py",
-                  "dynamics/forces/compiled.py", "solver/dae_kernels.py")
+                  "dynamics/forces/compiled.py", "dynamics/forces/python_elements.py",
+                  "solver/dae_kernels.py")
 
 _ROOT = Path(__file__).resolve().parents[1]
 _checked = False

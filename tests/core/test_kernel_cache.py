@@ -39,4 +39,8 @@ def test_every_module_with_cached_kernels_is_watched():
     root = Path(pipeline.__file__).parent
     cached = {p.relative_to(root).as_posix() for p in root.rglob("*.py")
               if re.search(r"@njit\([^)]*cache=True", p.read_text())}
-    assert cached == set(kernel_cache.KERNEL_MODULES)
+    # and the module the force dispatchers call back in object mode: a cached dispatcher
+    # holds its call, arguments and all
+    called_back = {"dynamics/forces/python_elements.py"}
+    assert "objmode" in (root / "dynamics/forces/compiled.py").read_text()
+    assert cached | called_back == set(kernel_cache.KERNEL_MODULES)
