@@ -71,8 +71,9 @@ class Index3Stepper:
         self.evaluations += 1
         return st, self.cs.residual(st, qdd, lam)[self.cs.U]
 
-    def _fd_block(self, t1, q, v, qdd, lam, G0, bp, gp):
-        """(dG/dq_U along the Newton direction) / beta', (nU, nU), by forward differences."""
+    def _fd_block(self, t1, q, v, qdd, lam, G0, bp, gp, M_UU):
+        """(dG/dq_U along the Newton direction) / beta' - M_UU, (nU, nU), by forward
+        differences (M_UU: the mass matrix's U block at q)."""
         U = self.cs.U
         S = np.empty((U.size, U.size))
         for k, i in enumerate(U):
@@ -83,7 +84,7 @@ class Index3Stepper:
             aa[i] += bp * d
             S[:, k] = (self._G(t1, qq, vv, aa, lam)[1] - G0) / (d * bp)
         self.jacobians += 1
-        return S
+        return S - M_UU  # the kept remainder: the current M_UU is added at each iteration
 
     def _mass_scale(self, S):
         d = np.abs(np.diag(S))
@@ -121,9 +122,9 @@ class Index3Stepper:
             closure_err = float(np.abs(st.c).max()) if m else 0.0
             if self.S is None or not 0.5 <= h / self.S[0] <= 2.0 or self.stale \
                     or (it == self.REFRESH_AFTER and not refreshed):
-                self.S = (h, self._fd_block(t1, q, v, qdd, lam, G, bp, gp))
+                self.S = (h, self._fd_block(t1, q, v, qdd, lam, G, bp, gp, st.terms.M[np.ix_(U, U)]))
                 refreshed, self.stale = True, False
-            S = self.S[1]
+            S = self.S[1] + st.terms.M[np.ix_(U, U)]
             s = self._mass_scale(S)
             K = np.zeros((nU + m, nU + m))
             K[:nU, :nU] = S
