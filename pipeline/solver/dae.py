@@ -114,6 +114,10 @@ def march_guarded(run, stepper, s, work, grid, advance):
                          + gimbal_lock_note(system.mechanism, q_fail))
 
 
+#: the most fixed steps one compiled call takes (outputs are recorded inside it)
+STRETCH = 500
+
+
 class _Run:
     """Step-size control and budgets of one run."""
 
@@ -245,23 +249,20 @@ class _Run:
 
 
     def _stretch(self, stepper, s, grid, advance, work):
-        """Fixed steps up to the next output time in one compiled call; the step that
-        fails (if one does) is retried by the caller at half the size. Returns (state,
-        work, message or None)."""
+        """Fixed steps in one compiled call, recording the outputs they pass, up to t1 or
+        :data:`STRETCH` steps (then the budgets, the stall watch and the progress bar
+        have their say); the step that fails (if one does) is retried by the caller at
+        half the size. Returns (state, work, message or None)."""
         h = self.nominal
-        target = min(grid.te[grid.k] if not grid.done else self.t1, self.t1)
-        count = max(1, int(np.ceil((target - s.t) / h - 1e-9)))
+        count = max(1, min(STRETCH, int(np.ceil((self.t1 - s.t) / h - 1e-9))))
         while count > 1 and s.t + count * h > self.t1 + same_time(self.t1):
             count -= 1
         count = min(count, self.max_steps - self.steps)
         if s.t + count * h > self.t1 + same_time(self.t1):  # only a shortened last step
             self.h = self.t1 - s.t
             return s, work, None
-        done, why, before, last, work1 = stepper.march(s, h, count, work)
+        done, why, _, last, work1 = stepper.march(s, h, count, work, grid)
         if done:
-            grid.fill_hermite(before[0], before[1], before[2], before[3], last.t, last.q,
-                              last.v, work1,
-                              (before[4], before[5], last.z, last.zd) if last.z.size else None)
             advance(grid.k)
             s, work = last, work1
             self.steps += done

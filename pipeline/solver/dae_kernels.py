@@ -379,28 +379,68 @@ def _jacobian(q, v, qdd, lam, z, zd, G, H, M, bp, gp, cz, factor, unit, zunit, U
 
 @njit(cache=True)
 def march(q, v, qdd, a, lam, z, zd, b, t0, h, qP, vP, aP, factors, work, powers, par, unit,
-          zunit, U, P, S, sinfo, kin, mass, K, D, g, w, frc):
+          zunit, U, P, S, sinfo, kin, mass, K, D, g, w, frc, te, teP, tvP, taP, tfactors,
+          rank_rtol, full, rec_q, rec_v, rec_qdd, rec_lam, rec_F, rec_e, rec_res, rec_work,
+          rec_z):
     """Steps of size h from t0 while the tables last (qP, vP, aP: (k, p) driver values,
-    factors (k, F) force histories at t0 + (j + 1) h). The state arrays, ``work`` (driver
-    work, dissipated energy) and ``powers`` (their rates at the state) advance in place.
+    factors (k, F) force histories at t0 + (j + 1) h), recording the output times te (o,)
+    they pass. The state arrays, ``work`` (driver work, dissipated energy) and ``powers``
+    (their rates at the state) advance in place.
+
+    An output time between two step ends gets the cubic Hermite interpolant of their
+    positions and rates (the elements' states likewise; the work linearly) and, with
+    ``full``, the consistent state of :func:`output` there (teP, tvP, taP, tfactors: the
+    drivers and force histories at te); without, the interpolated q, v and z only (the
+    error estimate's run). Rows go to rec_q, rec_v, rec_qdd (o, n), rec_lam (o, m), rec_F
+    (o, p), rec_e (o, 4), rec_res (o,), rec_work (o, 2), rec_z (o, nz).
+
     Returns (steps done, status of the failed step or 0, the state before the last step
-    (q, v, work, z, zd), Newton iterations in all)."""
+    (q, v, work, z, zd), Newton iterations in all, output rows recorded)."""
     qprev, vprev, wprev, zprev, zdprev = q.copy(), v.copy(), work.copy(), z.copy(), zd.copy()
     iters = 0
+    ko = 0
     for j in range(qP.shape[0]):
         st, q1, v1, qdd1, a1, lam1, z1, zd1, b1, it, _, _, pd, pnc = step(
             q, v, qdd, a, lam, z, zd, b, h, qP[j], vP[j], aP[j], factors[j], par, unit, zunit,
             U, P, S, sinfo, kin, mass, K, D, g, w, frc)
         iters += it
         if st != 0:
-            return j, st, qprev, vprev, wprev, zprev, zdprev, iters
+            return j, st, qprev, vprev, wprev, zprev, zdprev, iters, ko
         qprev[:], vprev[:], wprev[:], zprev[:], zdprev[:] = q, v, work, z, zd
         work[0] += 0.5 * h * (powers[0] + pd)
         work[1] += 0.5 * h * (powers[1] + pnc)
         powers[0], powers[1] = pd, pnc
         q[:], v[:], qdd[:], a[:], lam[:] = q1, v1, qdd1, a1, lam1
         z[:], zd[:], b[:] = z1, zd1, b1
-    return qP.shape[0], 0, qprev, vprev, wprev, zprev, zdprev, iters
+        ta, tb = t0 + j * h, t0 + (j + 1) * h
+        same = 1e-10 * max(1.0, abs(tb))  # constrained.same_time
+        while ko < te.shape[0] and te[ko] <= tb + same:
+            s = 1.0 if abs(te[ko] - tb) <= same else min(max((te[ko] - ta) / h, 0.0), 1.0)
+            qo, vo = hermite(qprev, vprev, q, v, h, s)
+            zo = hermite(zprev, zdprev, z, zd, h, s)[0]
+            rec_work[ko] = (1.0 - s) * wprev + s * work
+            rec_z[ko] = zo
+            if full:
+                qo, vo, qddo, lamo, Fo, eo, reso, _ = output(
+                    qo, vo, zo, teP[ko], tvP[ko], taP[ko], tfactors[ko], U, P, rank_rtol,
+                    kin, mass, K, D, g, w, frc)
+                rec_qdd[ko], rec_lam[ko], rec_F[ko] = qddo, lamo, Fo
+                rec_e[ko], rec_res[ko] = eo, reso
+            rec_q[ko], rec_v[ko] = qo, vo
+            ko += 1
+    return qP.shape[0], 0, qprev, vprev, wprev, zprev, zdprev, iters, ko
+
+
+@njit(cache=True)
+def hermite(q0, v0, q1, v1, h, s):
+    """Cubic Hermite position and its rate at fraction s in [0, 1] of a step of size h
+    (q0, v0, q1, v1: (n,) at its ends)."""
+    h00, h10 = 2 * s ** 3 - 3 * s ** 2 + 1, s ** 3 - 2 * s ** 2 + s
+    h01, h11 = -2 * s ** 3 + 3 * s ** 2, s ** 3 - s ** 2
+    d00, d10 = (6 * s ** 2 - 6 * s) / h, 3 * s ** 2 - 4 * s + 1
+    d01, d11 = (-6 * s ** 2 + 6 * s) / h, 3 * s ** 2 - 2 * s
+    return (h00 * q0 + h10 * h * v0 + h01 * q1 + h11 * h * v1,
+            d00 * q0 + d10 * v0 + d01 * q1 + d11 * v1)
 
 
 @njit(cache=True)

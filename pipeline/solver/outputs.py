@@ -16,20 +16,10 @@ import numpy as np
 
 from pipeline.dynamics.energy import energies
 from pipeline.solver.constrained import ConstrainedSystem, same_time
+from pipeline.solver.dae_kernels import hermite
 from pipeline.solver.result import ENERGY_KEYS, SimulationResult
 
 __all__ = ["OutputGrid", "hermite", "same_time"]
-
-
-def hermite(q0, v0, q1, v1, h, s):
-    """Cubic Hermite position and its rate at fraction s in [0, 1] of a step of size h."""
-    h00, h10 = 2 * s ** 3 - 3 * s ** 2 + 1, s ** 3 - 2 * s ** 2 + s
-    h01, h11 = -2 * s ** 3 + 3 * s ** 2, s ** 3 - s ** 2
-    d00, d10 = (6 * s ** 2 - 6 * s) / h, 3 * s ** 2 - 4 * s + 1
-    d01, d11 = (-6 * s ** 2 + 6 * s) / h, 3 * s ** 2 - 2 * s
-    q = h00 * q0 + h10 * h * v0 + h01 * q1 + h11 * h * v1
-    v = d00 * q0 + d10 * v0 + d01 * q1 + d11 * v1
-    return q, v
 
 
 class OutputGrid:
@@ -71,6 +61,21 @@ class OutputGrid:
             q, v = hermite(q0, v0, q1, v1, h, s)
             zk = None if z is None else hermite(z[0], z[1], z[2], z[3], h, s)[0]
             self.record(tk, q, v, (1.0 - s) * np.asarray(w0) + s * np.asarray(w1), zk)
+
+    def due_until(self, t: float) -> np.ndarray:
+        """The output times not yet recorded up to t (s)."""
+        j = self.k
+        while j < self.te.size and self.te[j] <= t + same_time(t):
+            j += 1
+        return self.te[self.k:j]
+
+    def append_rows(self, rows) -> None:
+        """Append rows recorded by the compiled march (t, q, v, qdd, lam, F, energies (4,),
+        residual, work (2,), z), in time order."""
+        names = ("kinetic", "gravity", "elastic", "forces")
+        for t, q, v, qdd, lam, F, e, res, work, z in rows:
+            self._append(t, q, v, qdd, lam, F, dict(zip(names, map(float, e))), float(res),
+                         work, z)
 
     def record(self, t, q, v, work, z=None):
         """Project (q, v) at t, evaluate and append an output row (z: the elements' own

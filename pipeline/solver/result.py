@@ -35,7 +35,9 @@ class SimulationResult:
     energies : name -> (k,) J (see ``ENERGY_KEYS``).
     closure_residual : (k,) max |closure residual| (m or rad) per output time.
     n_steps, n_rhs : accepted steps and right-hand-side evaluations.
-    timings : seconds per stage ("integrate", "output", "total").
+    timings : seconds per stage ("integrate", "output", "total"); a fixed-step
+        generalised-alpha run records its outputs inside the compiled steps, and their
+        cost is then part of "integrate".
     method : integrator name.
     driven : names of the driven coordinates.
     driver_forces : (k, p) force (N) / torque (N m) each driver applies along

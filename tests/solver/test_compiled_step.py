@@ -163,6 +163,44 @@ def test_a_stretch_of_steps_in_one_call_equals_single_steps():
     assert abs(before[0] - (s.t - 2e-3)) < 1e-15
 
 
+def test_outputs_recorded_inside_a_stretch_equal_those_recorded_step_by_step():
+    """The compiled march records the output times it passes (Hermite between step ends,
+    the consistent state of ``output`` there) as the Python loop does after each step;
+    the elements' own states (the hydraulic cylinder's pressures) included."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from test_hydraulic_cylinder import PA0, PB0, S0, _lift
+
+    lift, _ = _lift(SmoothStep(0.0, 0.02, 0.0, 0.6))
+    cases = [(*_excavator(), None), (lift, np.array([S0]), np.zeros(1),
+                                     np.array([PA0, PB0]))]
+    for system, q0, qd0, z0 in cases:
+        cs = ConstrainedSystem(system)
+        h, count = 2e-3, 25
+        te = np.concatenate([[0.0037, 0.01, 0.0101], np.linspace(0.012, count * h, 9)])
+        for positions_only in (False, True):
+            one, many = stepper(cs), stepper(cs)
+            a = OutputGrid(cs, te, one.output, positions_only)
+            b = OutputGrid(cs, te, many.output, positions_only)
+            s, work = one.start(0.0, q0, qd0, z0), np.zeros(2)
+            for _ in range(count):
+                s1 = one.step(s, h).state
+                work1 = work + 0.5 * h * (s.powers + s1.powers)
+                a.fill_hermite(s.t, s.q, s.v, work, s1.t, s1.q, s1.v, work1,
+                               (s.z, s.zd, s1.z, s1.zd) if s.z.size else None)
+                s, work = s1, work1
+            done, why, _, last, _ = many.march(many.start(0.0, q0, qd0, z0), h, count,
+                                               np.zeros(2), b)
+            assert done == count and why == "" and a.k == b.k == te.size
+            for ra, rb in zip(a.rows, b.rows):
+                assert ra[0] == rb[0]
+                for j in (1, 2, 3, 6, 7, 8):
+                    x, y = np.asarray(ra[j]), np.asarray(rb[j])
+                    assert np.abs(x - y).max(initial=0.0) <= 1e-12 * (
+                        1.0 + np.abs(x).max(initial=0.0)), (j, positions_only)
+                for k in ra[4]:
+                    assert abs(ra[4][k] - rb[4][k]) <= 1e-12 * (1.0 + abs(ra[4][k])), k
+
+
 def test_every_force_element_class_has_a_compiled_form():
     """Each element class the workflows offer has a kind, a pack and kernels, and the
     kinds are distinct: adding a class without them fails here."""
