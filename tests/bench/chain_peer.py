@@ -10,9 +10,8 @@ Exudyn is a benchmark peer only (``pip install exudyn``), never a dependency:
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
+from fourbar_peer import exudyn_planar, solve_planar
 
 from pipeline.dynamics import BodyMass, System
 from pipeline.kinematics import Joint, build_mechanism, rigid_link
@@ -37,44 +36,27 @@ def pipeline_model(n: int) -> System:
 
 def exudyn_run(n: int, t_end: float, step: float, rho_inf: float = 0.8):
     """(CPU seconds, the first bar's angle at t_end) of Exudyn's run; None without Exudyn."""
-    try:
-        import exudyn as exu
-        from exudyn.itemInterface import (
-            LoadMassProportional,
-            MarkerBodyMass,
-            MarkerBodyPosition,
-            NodeRigidBody2D,
-            ObjectGround,
-            ObjectRigidBody2D,
-            RevoluteJoint2D,
-        )
-    except ImportError:
+    peer = exudyn_planar()
+    if peer is None:
         return None
+    exu, X = peer
     SC = exu.SystemContainer()
     mbs = SC.AddSystem()
-    ground = mbs.AddObject(ObjectGround(referencePosition=[0, 0, 0]))
-    last = mbs.AddMarker(MarkerBodyPosition(bodyNumber=ground, localPosition=[0, 0, 0]))
+    ground = mbs.AddObject(X.ObjectGround(referencePosition=[0, 0, 0]))
+    last = mbs.AddMarker(X.MarkerBodyPosition(bodyNumber=ground, localPosition=[0, 0, 0]))
     first = None
     for k in range(n):
-        node = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[(k + 0.5) * L, 0.0, 0.0],
-                                           initialVelocities=[0.0, 0.0, 0.0]))
-        body = mbs.AddObject(ObjectRigidBody2D(physicsMass=M, physicsInertia=M * L * L / 12,
-                                               nodeNumber=node))
+        node = mbs.AddNode(X.NodeRigidBody2D(referenceCoordinates=[(k + 0.5) * L, 0.0, 0.0],
+                                             initialVelocities=[0.0, 0.0, 0.0]))
+        body = mbs.AddObject(X.ObjectRigidBody2D(physicsMass=M, physicsInertia=M * L * L / 12,
+                                                 nodeNumber=node))
         first = node if first is None else first
-        mbs.AddLoad(LoadMassProportional(markerNumber=mbs.AddMarker(MarkerBodyMass(
+        mbs.AddLoad(X.LoadMassProportional(markerNumber=mbs.AddMarker(X.MarkerBodyMass(
             bodyNumber=body)), loadVector=[0, -G, 0]))
-        here = mbs.AddMarker(MarkerBodyPosition(bodyNumber=body, localPosition=[-L / 2, 0, 0]))
-        mbs.AddObject(RevoluteJoint2D(markerNumbers=[last, here]))
-        last = mbs.AddMarker(MarkerBodyPosition(bodyNumber=body, localPosition=[L / 2, 0, 0]))
+        here = mbs.AddMarker(X.MarkerBodyPosition(bodyNumber=body,
+                                                  localPosition=[-L / 2, 0, 0]))
+        mbs.AddObject(X.RevoluteJoint2D(markerNumbers=[last, here]))
+        last = mbs.AddMarker(X.MarkerBodyPosition(bodyNumber=body, localPosition=[L / 2, 0, 0]))
     mbs.Assemble()
-    ss = exu.SimulationSettings()
-    ss.timeIntegration.numberOfSteps = round(t_end / step)
-    ss.timeIntegration.endTime = t_end
-    ss.timeIntegration.generalizedAlpha.spectralRadius = rho_inf
-    ss.timeIntegration.verboseMode = 0
-    ss.solutionSettings.writeSolutionToFile = False
-    ss.displayStatistics = False
-    c0 = time.process_time()
-    exu.SolveDynamic(mbs, ss)
-    cpu = time.process_time() - c0
+    cpu, _ = solve_planar(exu, mbs, t_end, step, rho_inf)
     return cpu, float(mbs.GetNodeOutput(first, exu.OutputVariableType.Rotation)[2])

@@ -54,52 +54,20 @@ def absolute_angles(q, qd):
     return th, w
 
 
-def exudyn_run(q0, qd0, t_end: float, step: float, rho_inf: float = 0.8):
-    """CPU seconds, wall seconds and the final crank angle of Exudyn's run from the same
-    state; None without Exudyn."""
+def exudyn_planar():
+    """(exudyn, its ``itemInterface`` module) for planar rigid bodies, or None without
+    Exudyn (the planar peers' shared start)."""
     try:
         import exudyn as exu
-        from exudyn.itemInterface import (
-            LoadMassProportional,
-            MarkerBodyMass,
-            MarkerBodyPosition,
-            NodeRigidBody2D,
-            ObjectGround,
-            ObjectRigidBody2D,
-            RevoluteJoint2D,
-        )
+        from exudyn import itemInterface
     except ImportError:
         return None
-    th, w = absolute_angles(q0, qd0)
-    SC = exu.SystemContainer()
-    mbs = SC.AddSystem()
-    ground = mbs.AddObject(ObjectGround(referencePosition=[0, 0, 0]))
-    origins = [np.zeros(2), A_ * np.array([np.cos(th[0]), np.sin(th[0])]), np.array([D_, 0.0])]
-    vel0 = [np.zeros(2), A_ * w[0] * np.array([-np.sin(th[0]), np.cos(th[0])]), np.zeros(2)]
-    bodies, nodes = [], []
-    for k, L in enumerate((A_, B_, C_)):
-        e = np.array([np.cos(th[k]), np.sin(th[k])])
-        com = origins[k] + 0.5 * L * e
-        v = vel0[k] + 0.5 * L * w[k] * np.array([-e[1], e[0]])
-        n = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[com[0], com[1], th[k]],
-                                        initialVelocities=[v[0], v[1], w[k]]))
-        o = mbs.AddObject(ObjectRigidBody2D(physicsMass=M_[k], physicsInertia=M_[k] * L * L / 12,
-                                            nodeNumber=n))
-        mbs.AddLoad(LoadMassProportional(markerNumber=mbs.AddMarker(MarkerBodyMass(
-            bodyNumber=o)), loadVector=[0, -G, 0]))
-        bodies.append(o)
-        nodes.append(n)
+    return exu, itemInterface
 
-    def marker(o, x):
-        return mbs.AddMarker(MarkerBodyPosition(bodyNumber=o, localPosition=[x, 0, 0]))
 
-    cr, cp, rk = bodies
-    for m1, m2 in ((marker(ground, 0.0), marker(cr, -A_ / 2)),
-                   (marker(cr, A_ / 2), marker(cp, -B_ / 2)),
-                   (marker(cp, B_ / 2), marker(rk, C_ / 2)),
-                   (marker(ground, D_), marker(rk, -C_ / 2))):
-        mbs.AddObject(RevoluteJoint2D(markerNumbers=[m1, m2]))
-    mbs.Assemble()
+def solve_planar(exu, mbs, t_end: float, step: float, rho_inf: float):
+    """(CPU s, wall s) of Exudyn's index-3 generalised-alpha run of the assembled ``mbs``
+    at a fixed step."""
     ss = exu.SimulationSettings()
     ss.timeIntegration.numberOfSteps = round(t_end / step)
     ss.timeIntegration.endTime = t_end
@@ -109,6 +77,46 @@ def exudyn_run(q0, qd0, t_end: float, step: float, rho_inf: float = 0.8):
     ss.displayStatistics = False
     c0, w0 = time.process_time(), time.perf_counter()
     exu.SolveDynamic(mbs, ss)
-    cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+    return time.process_time() - c0, time.perf_counter() - w0
+
+
+def exudyn_run(q0, qd0, t_end: float, step: float, rho_inf: float = 0.8):
+    """CPU seconds, wall seconds and the final crank angle of Exudyn's run from the same
+    state; None without Exudyn."""
+    peer = exudyn_planar()
+    if peer is None:
+        return None
+    exu, X = peer
+    th, w = absolute_angles(q0, qd0)
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    ground = mbs.AddObject(X.ObjectGround(referencePosition=[0, 0, 0]))
+    origins = [np.zeros(2), A_ * np.array([np.cos(th[0]), np.sin(th[0])]), np.array([D_, 0.0])]
+    vel0 = [np.zeros(2), A_ * w[0] * np.array([-np.sin(th[0]), np.cos(th[0])]), np.zeros(2)]
+    bodies, nodes = [], []
+    for k, L in enumerate((A_, B_, C_)):
+        e = np.array([np.cos(th[k]), np.sin(th[k])])
+        com = origins[k] + 0.5 * L * e
+        v = vel0[k] + 0.5 * L * w[k] * np.array([-e[1], e[0]])
+        n = mbs.AddNode(X.NodeRigidBody2D(referenceCoordinates=[com[0], com[1], th[k]],
+                                          initialVelocities=[v[0], v[1], w[k]]))
+        o = mbs.AddObject(X.ObjectRigidBody2D(physicsMass=M_[k],
+                                              physicsInertia=M_[k] * L * L / 12, nodeNumber=n))
+        mbs.AddLoad(X.LoadMassProportional(markerNumber=mbs.AddMarker(X.MarkerBodyMass(
+            bodyNumber=o)), loadVector=[0, -G, 0]))
+        bodies.append(o)
+        nodes.append(n)
+
+    def marker(o, x):
+        return mbs.AddMarker(X.MarkerBodyPosition(bodyNumber=o, localPosition=[x, 0, 0]))
+
+    cr, cp, rk = bodies
+    for m1, m2 in ((marker(ground, 0.0), marker(cr, -A_ / 2)),
+                   (marker(cr, A_ / 2), marker(cp, -B_ / 2)),
+                   (marker(cp, B_ / 2), marker(rk, C_ / 2)),
+                   (marker(ground, D_), marker(rk, -C_ / 2))):
+        mbs.AddObject(X.RevoluteJoint2D(markerNumbers=[m1, m2]))
+    mbs.Assemble()
+    cpu, wall = solve_planar(exu, mbs, t_end, step, rho_inf)
     crank = float(mbs.GetNodeOutput(nodes[0], exu.OutputVariableType.Rotation)[2])
     return cpu, wall, crank

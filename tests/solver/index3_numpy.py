@@ -18,19 +18,8 @@ from pipeline.solver.index3 import StepOutcome, StepState, powers
 class Index3Stepper:
     """Steps of the index-3 generalised-alpha method (module docstring).
 
-    Parameters
-    ----------
-    cs : ConstrainedSystem.
-    rho_inf : spectral radius at infinite frequency, [0, 1].
-    newton_rtol, newton_atol : the Newton corrections dq must fall below
-        newton_atol * unit + newton_rtol * |q| per coordinate.
-    closure_tol : largest weighted closure residual accepted (dimensionless: m per length
-        scale, rad).
-    unit : (n,) coordinate scales (1 rad, the length scale for a length, the modal amplitude
-        that moves a frame by the length scale): the jump bound and atol are in these units.
-    jump : largest Newton correction (in ``unit``) accepted before the step is rejected as
-        leaving the predicted configuration (another assembly branch, a diverging Newton).
-    eps : regularisation of the constraint block (relative).
+    Parameters: those of :class:`pipeline.solver.index3_compiled.CompiledStepper`
+    (without ``data``).
     """
 
     MAX_NEWTON = MAX_NEWTON
