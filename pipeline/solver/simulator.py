@@ -10,8 +10,9 @@ Inputs are named when the simulator is built, each with its start value:
 
 * a force element's name: its history value (the element's force, torque or point force
   times this number; a ``JointForce(name, coordinate, 1.0)`` takes the force in N or N m
-  itself; a hydraulic cylinder's valve command in [-1, 1]), held constant over each step
-  (zero-order hold). It replaces the element's own history (the cylinder's command).
+  itself; a hydraulic cylinder's valve command in [-1, 1], or its controller's reference
+  when a PID commands the valve), held constant over each step (zero-order hold). It
+  replaces the element's own history (the cylinder's command; the controller's reference).
 * a driven coordinate's name: its value (m or rad), reached linearly over each step
   (first-order hold: rate constant over the step, acceleration zero within it). It
   replaces the coordinate's driver; it starts from that driver's value at t0, at rest.
@@ -488,6 +489,10 @@ def _with_inputs(system, declared: dict, t0: float):
                               f"element {sorted(forces)} or a driven coordinate "
                               f"{sorted(drivers)}")
     for f in system.forces:
-        new_forces.append(replace(f, **{getattr(f, "HISTORY", "history"): held[f.name]})
-                          if f.name in held else f)
+        if f.name not in held:
+            new_forces.append(f)
+        elif getattr(f, "controlled", False):  # a controller's input is its reference
+            new_forces.append(replace(f, command=replace(f.command, reference=held[f.name])))
+        else:
+            new_forces.append(replace(f, **{getattr(f, "HISTORY", "history"): held[f.name]}))
     return replace(system, forces=tuple(new_forces), drivers=drivers), held

@@ -342,9 +342,42 @@ def _element_kwargs(wf: Workflow, mech, i: int, f) -> dict:
     if "coordinate" in kw:
         _coordinate(wf, mech, str(kw["coordinate"]), "forces", i, "coordinate")
     field = getattr(FORCES.get(f.type), "HISTORY", "history")  # a valve's is "command"
-    if isinstance(kw.get(field), dict):
+    if f.type == "hydraulic_cylinder" and isinstance(kw.get(field), dict) \
+            and "pid" in kw[field]:
+        kw[field] = _pid(wf, mech, kw[field], ("forces", i, field))
+    elif isinstance(kw.get(field), dict):
         kw[field] = driver_from_dict(kw[field], wf.where("forces", i, field), wf.base_dir)
     return kw
+
+
+def _pid(wf: Workflow, mech, spec: dict, path: tuple):
+    """The PID controller of a cylinder's ``command: {pid: {...}}`` (its reference a
+    number or a driver, as a command's)."""
+    from pipeline.dynamics.forces.hydraulics import PID
+
+    if set(spec) != {"pid"} or not isinstance(spec["pid"], dict):
+        raise wf.error(*path, msg="expected {pid: {reference, kp, ki, kd, measured, "
+                                  "output_limits, tracking_time}}")
+    kw = dict(spec["pid"])
+    fields = [x.name for x in dataclasses.fields(PID)]
+    unknown = sorted(set(kw) - set(fields))
+    if unknown:
+        raise wf.error(*path, "pid", unknown[0],
+                       msg=f"unknown field of a PID (misspelt?); fields: {fields}")
+    for key in ("reference", "kp"):
+        if key not in kw:
+            raise wf.error(*path, "pid", msg=f"missing field {key!r}")
+    if isinstance(kw["reference"], dict):
+        kw["reference"] = driver_from_dict(kw["reference"], wf.where(*path, "pid", "reference"),
+                                           wf.base_dir)
+    if kw.get("measured", "stroke") != "stroke":
+        _coordinate(wf, mech, str(kw["measured"]), *path, "pid", "measured")
+    if isinstance(kw.get("output_limits"), list):
+        kw["output_limits"] = tuple(kw["output_limits"])
+    try:
+        return PID(**kw)
+    except ConfigError as exc:
+        raise wf.error(*path, "pid", msg=str(exc)) from None
 
 
 def _marker_distance(mech, q, a, b) -> float:

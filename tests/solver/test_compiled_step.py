@@ -188,7 +188,7 @@ def test_outputs_recorded_inside_a_stretch_equal_those_recorded_step_by_step():
                 a.fill_hermite(s.t, s.q, s.v, work, s1.t, s1.q, s1.v, work1,
                                (s.z, s.zd, s1.z, s1.zd) if s.z.size else None)
                 s, work = s1, work1
-            done, why, _, last, _ = many.march(many.start(0.0, q0, qd0, z0), h, count,
+            done, why, _, _, _ = many.march(many.start(0.0, q0, qd0, z0), h, count,
                                                np.zeros(2), b)
             assert done == count and why == "" and a.k == b.k == te.size
             for ra, rb in zip(a.rows, b.rows):

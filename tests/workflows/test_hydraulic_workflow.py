@@ -131,3 +131,43 @@ def test_a_dynamic_run_may_start_from_the_statics_the_held_pressures_give(tmp_pa
     r, r0 = res.result("raise", ""), ref.result("raise", "")
     assert r.verdict == "ok", r.warnings
     np.testing.assert_allclose(r.q, r0.q, atol=1e-9)
+
+
+PID_COMMAND = ("    command:\n      pid:\n        reference: {type: smooth_step, t0: 0.0, t1: 0.3, "
+               f"v0: {S0}, v1: {S0 + 0.05}}}\n        kp: 20.0\n        ki: 40.0\n"
+               "        kd: 0.5\n        measured: slide.d\n")
+
+
+def _with_pid(text=LIFT, command=PID_COMMAND):
+    return text.replace("    command: {type: smooth_step, t0: 0.0, t1: 0.2, v0: 0.0, v1: 0.6}\n",
+                        command)
+
+
+def test_a_pid_commanded_cylinder_runs_as_the_python_api_does(tmp_path):
+    from pipeline.dynamics.forces.hydraulics import PID
+
+    text = _with_pid().replace('"state:lift.p_b"]', '"state:lift.p_b", "state:lift.pid"]')
+    res = run_workflow(_write(tmp_path, text), out_root=tmp_path / "out")
+    r = res.result("raise", "")
+    pid = PID(SmoothStep(0.0, 0.3, S0, S0 + 0.05), kp=20.0, ki=40.0, kd=0.5,
+              measured="slide.d")
+    system, _ = _lift(pid)
+    ref = simulate(system, np.array([S0]), np.zeros(1), (0.0, 0.4), np.linspace(0, 0.4, 41),
+                   method="generalized_alpha", step=5e-4, rtol=1e-4, atol=1e-8,
+                   progress=False)
+    assert r.verdict == ref.verdict and np.abs(r.q - ref.q).max() < 1e-12
+    assert r.q[-1, 0] - S0 > 0.03  # the controller moved it towards its reference
+    assert np.abs(r.states["lift.pid"][1] - ref.state("lift.pid")).max() < 1e-12
+
+
+@pytest.mark.parametrize("command, match", [
+    (PID_COMMAND.replace("kp: 20.0", "kq: 20.0"),
+     r"forces\[0\]\.command\.pid\.kq: unknown field of a PID"),
+    (PID_COMMAND.replace("slide.d", "slide.x"),
+     r"forces\[0\]\.command\.pid\.measured: coordinate 'slide\.x' does not exist"),
+    (PID_COMMAND.replace("kp: 20.0", "kp: -2.0"), r"forces\[0\]\.command\.pid: PID: kp"),
+    (PID_COMMAND.replace("        kp: 20.0\n", ""), r"forces\[0\]\.command\.pid: missing field 'kp'"),
+])
+def test_a_bad_pid_is_named_at_its_line(tmp_path, command, match):
+    with pytest.raises(ConfigError, match=r"lift\.yaml:\d+: " + match):
+        run_workflow(_write(tmp_path, _with_pid(command=command)), out_root=tmp_path / "out")

@@ -45,6 +45,17 @@ as a real stop does).
 The element is non-conservative: its power F s' enters the energy balance as work done on
 the machine (the ``dissipated`` entry, with its sign: negative where the cylinder lifts).
 
+The command may come from a controller on the cylinder (``command=PID(...)``): a PID
+law with output limits and anti-windup by back-calculation (Astrom & Hagglund) on the
+cylinder's own stroke or on a joint coordinate (``measured``),
+
+    e = r(t) - y,   v = k_p e + x_i - k_d y',   u = clip(v, u_min, u_max),
+    x_i' = k_i e + (u - v) / T_t,
+
+its integral term x_i (output units) one more state of the element (``pid``); the
+derivative acts on the measurement (no kick when the reference jumps) and the tracking
+time T_t defaults to sqrt(T_i T_d) (T_i = k_p / k_i, T_d = k_d / k_p; T_i without k_d).
+
 Not modelled (yet): the cushions' throttling near the ends (without end stops a stroke
 outside [0, stroke] is reported by the run's checks), cavitation (pressures below -1 bar
 gauge are reported), pressure-dependent bulk modulus, load-holding valves.
@@ -68,14 +79,69 @@ from pipeline.core.errors import ConfigError
 from pipeline.dynamics.forces.base import LineElement
 from pipeline.dynamics.forces.markers import line_geometry
 
-__all__ = ["HydraulicCylinder", "cylinder_force", "cylinder_rates"]
+__all__ = ["PID", "HydraulicCylinder", "cylinder_force", "cylinder_rates", "pid_law"]
 
 #: bar: the scale of a pressure state (Newton's and the error estimate's units)
 PRESSURE_UNIT = 1e5
 
 # par columns of the packed element
 _AA, _AB, _L0, _STROKE, _VA0, _VB0, _BETA, _PS, _PT, _KV, _DPL, _LEAK, _VISC, _COUL, _VS, \
-    _QP, _PR, _KR, _VS0, _SPOOL, _TAU, _WV, _ZV, _OVL, _KE, _CE = range(26)
+    _QP, _PR, _KR, _VS0, _SPOOL, _TAU, _WV, _ZV, _OVL, _KE, _CE, \
+    _PID, _KP, _KI, _KD, _UMIN, _UMAX, _TT, _MEAS = range(34)
+
+
+@dataclass(frozen=True)
+class PID:
+    """A PID controller commanding a hydraulic cylinder's valve (the module docstring):
+    ``reference`` r(t) (a number, a driver or a table: m for the stroke, the coordinate's
+    unit otherwise), gains ``kp`` (1 per unit of y), ``ki`` (per unit and second), ``kd``
+    (per unit per second), on ``measured`` ("stroke": the cylinder's own, m; or a joint
+    coordinate's name), output limited to ``output_limits`` (the valve's [-1, 1] by
+    default), anti-windup ``tracking_time`` T_t, s (None: the rule of the docstring)."""
+
+    reference: Any
+    kp: float
+    ki: float = 0.0
+    kd: float = 0.0
+    measured: str = "stroke"
+    output_limits: tuple = (-1.0, 1.0)
+    tracking_time: float | None = None
+
+    def __post_init__(self):
+        for key in ("kp", "ki", "kd"):
+            x = getattr(self, key)
+            if isinstance(x, bool) or not isinstance(x, int | float) or not x >= 0 \
+                    or not math.isfinite(x):
+                raise ConfigError(f"PID: {key}: expected a gain >= 0, got {x!r}")
+        lo = self.output_limits
+        if not (isinstance(lo, tuple | list) and len(lo) == 2
+                and all(isinstance(x, int | float) and not isinstance(x, bool) for x in lo)
+                and -1.0 <= lo[0] < lo[1] <= 1.0):
+            raise ConfigError(f"PID: output_limits: expected [u_min, u_max] within the "
+                              f"valve's [-1, 1], u_min < u_max, got {lo!r}")
+        tt = self.tracking_time
+        if tt is not None and (isinstance(tt, bool) or not isinstance(tt, int | float)
+                               or not tt > 0 or not math.isfinite(tt)):
+            raise ConfigError(f"PID: tracking_time: expected seconds > 0, got {tt!r}")
+        if not isinstance(self.measured, str) or not self.measured:
+            raise ConfigError(f"PID: measured: expected 'stroke' or a coordinate's name, "
+                              f"got {self.measured!r}")
+
+    def value(self, t: float) -> float:
+        """The reference r(t): the history the compiled step evaluates once per step."""
+        from pipeline.dynamics.forces.loads import history_value
+
+        return history_value(self.reference, t, "PID reference")
+
+    @property
+    def tracking(self) -> float:
+        """T_t, s (0: no integral action, nothing to wind up)."""
+        if not self.ki:
+            return 0.0
+        if self.tracking_time is not None:
+            return float(self.tracking_time)
+        ti = self.kp / self.ki
+        return math.sqrt(ti * self.kd / self.kp) if self.kd and self.kp else ti or 1.0
 
 
 @dataclass(frozen=True)
@@ -135,11 +201,17 @@ class HydraulicCylinder(LineElement):
         """(p_a, p_b), the supply line's p_s when a pump of given flow feeds it, and the
         spool's position x_v (and rate v_v) when it has dynamics."""
         return ("p_a", "p_b") + (("p_s",) if self.pump_flow is not None else ()) \
-            + ("x_v", "v_v")[:self.spool_order]
+            + ("x_v", "v_v")[:self.spool_order] + (("pid",) if self.controlled else ())
 
     @property
     def STATE_UNITS(self) -> tuple[str, ...]:
-        return ("Pa",) * (2 + (self.pump_flow is not None)) + ("1", "1/s")[:self.spool_order]
+        return ("Pa",) * (2 + (self.pump_flow is not None)) \
+            + ("1", "1/s")[:self.spool_order] + (("1",) if self.controlled else ())
+
+    @property
+    def controlled(self) -> bool:
+        """Is the valve commanded by a controller on the cylinder (:class:`PID`)?"""
+        return isinstance(self.command, PID)
 
     def __post_init__(self):
         where = f"force element '{self.name}'"
@@ -228,8 +300,31 @@ class HydraulicCylinder(LineElement):
                          self.supply_volume, self.spool_order,
                          self.spool_time_constant or 0.0,
                          2 * math.pi * (self.spool_frequency or 0.0), self.spool_damping,
-                         self.spool_overlap, self.end_stiffness or 0.0, self.end_damping],
-                        dtype=float)
+                         self.spool_overlap, self.end_stiffness or 0.0, self.end_damping,
+                         *self._pid_parameters(-1)], dtype=float)
+
+    def _pid_parameters(self, measured: int) -> tuple:
+        """(flag, kp, ki, kd, u_min, u_max, T_t, the measured coordinate's index or -1 for
+        the stroke) of the packed element."""
+        c = self.command
+        if not self.controlled:
+            return (0.0,) * 7 + (-1.0,)
+        return (1.0, c.kp, c.ki, c.kd, *map(float, c.output_limits), c.tracking, measured)
+
+    def measured_index(self, mech) -> int:
+        """The measured coordinate's index, -1 for the stroke (ConfigError naming the
+        element for an unknown coordinate)."""
+        if not self.controlled or self.command.measured == "stroke":
+            return -1
+        try:
+            return mech.index(self.command.measured)
+        except ConfigError as exc:
+            raise ConfigError(f"force element '{self.name}': command: measured: {exc}") \
+                from None
+
+    def validate(self, system) -> None:
+        super().validate(system)
+        self.measured_index(system.mechanism)
 
     def oil_stiffness(self, s: float) -> float:
         """The oil columns' axial stiffness beta (A_a^2 / V_a + A_b^2 / V_b) at stroke s (m),
@@ -240,8 +335,10 @@ class HydraulicCylinder(LineElement):
 
     def pack(self, mech, markers) -> tuple:
         """(ints, par, table rows or None) of the compiled form."""
-        return ([markers.add(self.marker_a), markers.add(self.marker_b), 0, 0],
-                list(self.parameters()), None)
+        par = self.parameters()
+        par[_MEAS] = self.measured_index(markers.mech)
+        return ([markers.add(self.marker_a), markers.add(self.marker_b), 0, 0], list(par),
+                None)
 
     def initial_states(self) -> np.ndarray:
         """(p_a, p_b[, p_s][, x_v[, v_v]]) at the start: pressures in Pa, NaN for a ``hold``
@@ -253,16 +350,20 @@ class HydraulicCylinder(LineElement):
         p = [np.nan if x == "hold" else x for x in self.initial_pressures]
         if self.pump_flow is not None:
             p.append(self.initial_supply_pressure)
-        if self.spool_order:
-            u = min(max(history_value(self.command, 0.0, self.name), -1.0), 1.0)
+        if self.spool_order:  # a controller's spool starts centred
+            u = 0.0 if self.controlled else \
+                min(max(history_value(self.command, 0.0, self.name), -1.0), 1.0)
             p += [u, 0.0][:self.spool_order]
+        if self.controlled:
+            p.append(0.0)  # the integral term
         return np.array(p, dtype=float)
 
     def state_scales(self) -> np.ndarray:
         """A bar for a pressure; the spool's whole travel (and, second order, that per
         1 / w_v)."""
         return np.array([PRESSURE_UNIT] * (2 + (self.pump_flow is not None))
-                        + [1.0, 2 * math.pi * (self.spool_frequency or 0.0)][:self.spool_order])
+                        + [1.0, 2 * math.pi * (self.spool_frequency or 0.0)][:self.spool_order]
+                        + [1.0] * self.controlled)
 
     # ------------------------------------------------------------------ numpy
     def _force(self, system, tree, q, qd, t, z=None):
@@ -278,9 +379,10 @@ class HydraulicCylinder(LineElement):
         z = self.own_states(z)
         _, _, length, _, dl = self.line(system, tree, q)
         par = self.parameters()
+        par[_MEAS] = self.measured_index(system.mechanism)
         out = np.empty(z.size)
-        valve_rates(par, history_value(self.command, t, self.name), length, float(dl @ qd),
-                    z, 0, out)
+        command_rates(par, history_value(self.command, t, self.name), length, float(dl @ qd),
+                      np.asarray(q, dtype=float), np.asarray(qd, dtype=float), z, 0, out)
         return out
 
     def run_checks(self, system, r) -> list[str]:
@@ -392,6 +494,39 @@ def valve_rates(par, u, length, sd, z, o, zd):
 
 
 @njit(cache=True)
+def pid_law(par, r, y, yd, xi):
+    """(the valve command u, the integral term's rate x_i') of the controller (module
+    docstring) at the reference r, measurement y and its rate yd, integral term xi."""
+    v = par[_KP] * (r - y) + xi - par[_KD] * yd
+    u = min(max(v, par[_UMIN]), par[_UMAX])
+    rate = 0.0
+    if par[_KI] > 0.0:
+        rate = par[_KI] * (r - y) + (u - v) / par[_TT]
+    return u, rate
+
+
+@njit(cache=True)
+def command_rates(par, command, length, sd, q, v, z, o, zd):
+    """zd[o:] = the rates of the element's states z[o:] at the valve ``command`` (the
+    history's value; with a controller, its reference), length (m), stroke rate sd
+    (m/s) and coordinates q, rates v (a controller's measurement)."""
+    if par[_PID] > 0.0:
+        k = o + _state_count(par) - 1  # the integral term: the element's last state
+        i = int(par[_MEAS])
+        y, yd = (length - par[_L0], sd) if i < 0 else (q[i], v[i])
+        u, zd[k] = pid_law(par, command, y, yd, z[k])
+        valve_rates(par, u, length, sd, z, o, zd)
+    else:
+        valve_rates(par, command, length, sd, z, o, zd)
+
+
+@njit(cache=True)
+def _state_count(par) -> int:
+    """The element's number of states (STATES)."""
+    return 2 + (1 if par[_QP] > 0.0 else 0) + int(par[_SPOOL]) + (1 if par[_PID] > 0 else 0)
+
+
+@njit(cache=True)
 def pressure_rates(par, length, sd, pa, pb, psup, x, out):
     """out (3,) = (p_a', p_b', p_s'), Pa/s, at the length (m), stroke rate sd (m/s),
     pressures pa, pb and, with a pump of given flow, the supply line's psup (Pa), and
@@ -431,4 +566,4 @@ def cylinder_force(e, q, v, z, A, dA, factor, d, Q, Qnc):
 @njit(cache=True)
 def cylinder_rates(e, q, v, z, A, dA, factor, d, zd):
     length, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
-    valve_rates(d.par[e], factor[e], length, dl @ v, z, d.ints[e, 4], zd)
+    command_rates(d.par[e], factor[e], length, dl @ v, q, v, z, d.ints[e, 4], zd)
