@@ -5,8 +5,9 @@ numpy oracle is ``tests/solver/index3_numpy.py``).
 :func:`stepper` returns the :class:`CompiledStepper` of a system; a force element without a
 compiled form is called back from it (:mod:`pipeline.dynamics.forces.python_elements`).
 Drivers and force histories are Python objects: they are evaluated here, once per step, and
-handed to the kernel as numbers. :meth:`CompiledStepper.march` runs a stretch of fixed steps in one call
-(the driver values of every step tabulated first).
+handed to the kernel as numbers. :meth:`CompiledStepper.march` runs a stretch of fixed
+steps in one call (the driver values of every step tabulated first), recording the outputs
+it passes.
 """
 
 from __future__ import annotations
@@ -138,7 +139,7 @@ class CompiledStepper:
             p, self.par, self.unit, self.zunit, cs.U, cs.P, self.S, self.sinfo, *self.args,
             te, teP, tvP, taP, tfac, RANK_RTOL, full, *rec)
         if grid is not None and ko:  # their cost is in the call's (timings "integrate")
-            grid.append_rows(zip(te[:ko], *(r[:ko] for r in rec[:8]), rec[8][:ko]))
+            grid.append_rows(zip(te[:ko], *(r[:ko] for r in rec)))
         done = int(done)
         t = s0.t + h * done
         last = StepState(t, q, v, qdd, a, lam, p, z, zd, b)

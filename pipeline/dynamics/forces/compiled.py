@@ -26,8 +26,8 @@ from pipeline.dynamics.forces import springs as S
 from pipeline.dynamics.forces.loads import history_value
 from pipeline.dynamics.forces.markers import ForceData, MarkerTable
 
-__all__ = ["KERNELS", "compile_forces", "force_factors", "generalized_forces", "potential",
-           "state_rates", "uncompiled"]
+__all__ = ["KERNELS", "compile_forces", "force_factors", "generalized_forces", "has_kernels",
+           "potential", "state_rates", "uncompiled"]
 
 JOINT_SPRING = S.JointSpringDamper.KIND
 COORDINATE_FORCE = L.JointForce.KIND
@@ -58,10 +58,14 @@ KERNELS = {
 }
 
 
+def has_kernels(f) -> bool:
+    """Does force element ``f`` have a compiled form (its exact class registered)?"""
+    return type(f) in KERNELS.get(getattr(type(f), "KIND", None), ((),))[0]
+
+
 def uncompiled(forces) -> list[str]:
     """The names of the elements among ``forces`` that have no compiled form."""
-    return [getattr(f, "name", type(f).__name__) for f in forces
-            if type(f) not in KERNELS.get(getattr(type(f), "KIND", None), ((),))[0]]
+    return [getattr(f, "name", type(f).__name__) for f in forces if not has_kernels(f)]
 
 
 def compile_forces(system) -> tuple[ForceData, tuple]:
@@ -74,7 +78,7 @@ def compile_forces(system) -> tuple[ForceData, tuple]:
     offsets = {id(f): sl.start for f, sl in system.state_slices}
     python = []  # (row, element) of the elements evaluated by their numpy methods
     for f in system.forces:
-        if type(f) not in KERNELS.get(getattr(type(f), "KIND", None), ((),))[0]:
+        if not has_kernels(f):
             python.append((len(kinds), f))
             kinds.append(PYTHON_KIND)
             ints.append([0, 0, 0, 0, offsets.get(id(f), -1)])
