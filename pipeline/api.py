@@ -25,7 +25,8 @@ Dynamics
     :func:`kinetostatics` (with joint reactions), :func:`simulate` (checked transient:
     ``result.verdict``), :func:`vibration_modes`, :func:`marker_motion`; stepping from
     outside (a controller, a co-simulation): :class:`Simulator` (``step(dt, inputs)``,
-    ``state``/``set_state``, ``result()``).
+    ``state``/``set_state``, ``result()``); FMUs beside it: :class:`FMU`,
+    :func:`cosimulate`.
 Results
     :func:`marker_positions` (positions and deflections in ground or any link's axes),
     :func:`energies`, :func:`series` (any named history, stresses included),
@@ -98,6 +99,8 @@ _HOMES = {
     "Limits": "pipeline.solver",
     "SimulationResult": "pipeline.solver",
     "simulate": "pipeline.solver",
+    "FMU": "pipeline.solver.cosim",
+    "cosimulate": "pipeline.solver.cosim",
     "Simulator": "pipeline.solver.simulator",
     "SimulatorState": "pipeline.solver.simulator",
     "build_machine": "pipeline.workflow",
@@ -157,6 +160,7 @@ if TYPE_CHECKING:  # what the names are, for readers and type checkers
     from pipeline.post.shapes import LinkShape, shape_from_reduced
     from pipeline.post.vtk_series import write_vtk_series
     from pipeline.solver import Limits, SimulationResult, simulate
+    from pipeline.solver.cosim import FMU, cosimulate
     from pipeline.solver.simulator import Simulator, SimulatorState
     from pipeline.workflow import build_machine, load_workflow, run_workflow
     from pipeline.workflow.build import kept_modes
@@ -201,12 +205,13 @@ def reduce_link(spec: str | Path, cache_dir: str | Path = "output/links",
 
 
 __all__ = [
-    "JOINTS", "BodyMass", "Constant", "Curve", "ForceCylinder", "Harmonic",
+    "FMU", "JOINTS", "BodyMass", "Constant", "Curve", "ForceCylinder", "Harmonic",
     "HydraulicCylinder", "Joint", "JointForce", "JointSpringDamper", "Limits", "LinkShape",
     "Panel", "Picture", "PointForce", "Ramp", "ReducedLink", "SimulationResult", "Simulator",
     "SimulatorState", "SmoothStep", "SpringDamper",
     "Style", "System", "Table", "Torque", "animate_machine", "body_from_reduced",
-    "build_machine", "build_mechanism", "dof_report", "effective_mass_fractions", "energies",
+    "build_machine", "build_mechanism", "cosimulate", "dof_report",
+    "effective_mass_fractions", "energies",
     "initial_positions", "kept_modes", "kinetostatics", "link_from_reduced", "load_link_spec",
     "load_workflow", "machine_shapes", "marker_motion", "marker_positions", "plot_panels",
     "principal_stresses", "reduce_link", "render_machine", "render_modes", "render_positions",

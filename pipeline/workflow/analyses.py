@@ -184,11 +184,15 @@ def run_dynamic(m: Machine, a, path) -> dict:
                     rotation=c.rotation, min_step=c.min_step, spin=c.spin,
                     axial=c.axial)
     try:
-        r = simulate(system, q0, m.qd0, (0.0, a.t_end), t_eval=_times(a), method=a.method,
-                     rtol=a.rtol, atol=a.atol, progress=True, formulation=a.formulation,
-                     max_steps=a.max_steps, max_wall=a.max_wall, limits=limits, **opts)
+        if a.fmus:
+            r = _cosimulate(m, system, q0, a, limits)
+        else:
+            r = simulate(system, q0, m.qd0, (0.0, a.t_end), t_eval=_times(a),
+                         method=a.method, rtol=a.rtol, atol=a.atol, progress=True,
+                         formulation=a.formulation, max_steps=a.max_steps,
+                         max_wall=a.max_wall, limits=limits, **opts)
     except ConfigError as exc:
-        raise m.workflow.error(*path, msg=str(exc)) from None
+        raise m.workflow.error(*path, *(("fmus",) if a.fmus else ()), msg=str(exc)) from None
     forces = {name: r.driver_forces[:, i] for i, name in enumerate(r.driven)}
     extra = {"closure_residual": r.closure_residual, "n_steps": r.n_steps, "n_rhs": r.n_rhs,
              "method": r.method, "formulation": r.formulation}
@@ -212,6 +216,21 @@ def run_dynamic(m: Machine, a, path) -> dict:
         "verdict": r.verdict,
         "warnings": tuple(r.warnings),
     }
+
+
+def _cosimulate(m: Machine, system, q0, a, limits):
+    """The dynamic analysis ``a`` with its FMUs beside the machine (pipeline.solver.cosim):
+    the Simulator's inputs are what the FMUs' outputs drive; the outputs are the
+    communication points."""
+    from pipeline.solver.cosim import FMU, cosimulate
+    from pipeline.solver.simulator import Simulator
+
+    fmus = [FMU(m.workflow.base_dir / f.path, f.inputs, f.outputs, f.parameters)
+            for f in a.fmus]
+    targets = list(dict.fromkeys(x for f in fmus for x in f.outputs.values()))
+    sim = Simulator(system, q0, m.qd0, step=a.step, inputs=targets, rho_inf=a.rho_inf,
+                    rtol=a.rtol, atol=a.atol)
+    return cosimulate(sim, fmus, a.t_end, a.macro_step, progress=True, limits=limits)
 
 
 def state_histories(system, r) -> dict:

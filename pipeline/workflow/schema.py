@@ -344,8 +344,26 @@ class StaticStart(Strict):
         return value
 
 
+class FmuSpec(Strict):
+    """An FMU (FMI 2 co-simulation) beside the machine (pipeline.solver.cosim)."""
+
+    path: str = Field(description="the .fmu file, relative to the workflow's folder")
+    inputs: dict[str, str] = Field(default_factory=dict, description="FMU input variable: "
+                                   "the machine's signal (q:<coordinate>, qd:<coordinate>, "
+                                   "state:<element>.<state>, marker:<link>.<frame>:x|y|z, "
+                                   "time)")
+    outputs: dict[str, str] = Field(default_factory=dict, description="FMU output variable: "
+                                    "the force element or driven coordinate it drives")
+    parameters: dict[str, float] = Field(default_factory=dict, description="start values")
+
+
 class DynamicAnalysis(_Timed):
     type: Literal["dynamic"]
+    fmus: list[FmuSpec] = Field(default_factory=list, description="FMUs co-simulated with "
+                                "the machine (generalized_alpha with a fixed step; the "
+                                "outputs are the communication points)")
+    macro_step: float | None = Field(None, gt=0, description="the FMUs' communication step, "
+                                                             "s")
     method: str = Field("DOP853", description="DOP853 | Radau | BDF | RK45 | LSODA | "
                                               "generalized_alpha")
     formulation: Literal["auto", "dae", "partitioned"] = Field(
@@ -365,6 +383,14 @@ class DynamicAnalysis(_Timed):
         "initial", description="start from the initial state, from static equilibrium, or "
                                "{hold: [...], loads: [...]}: static equilibrium with coordinates "
                                "held and loads released at t = 0")
+
+    @model_validator(mode="after")
+    def _cosimulation(self):
+        if self.fmus and (self.method != "generalized_alpha" or self.step is None
+                          or self.macro_step is None):
+            raise ValueError("fmus: a co-simulation runs method generalized_alpha with a "
+                             "fixed step and a macro_step (the FMUs' communication step)")
+        return self
 
     @model_validator(mode="after")
     def _within_budget(self):

@@ -1,0 +1,186 @@
+"""Co-simulation with real FMUs (pipeline.solver.cosim): FMI 2 co-simulation FMUs built
+here by pythonfmu from small Python controllers, run through fmpy beside the hydraulic
+lift of ``test_hydraulic_cylinder.py``.
+
+References: the same sampled controller written in Python around a Simulator (the master
+loop must give that run to round-off), and the FMU's parameters taking effect."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("fmpy")
+pythonfmu = pytest.importorskip("pythonfmu")
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_hydraulic_cylinder import S0, _lift
+
+from pipeline.core.errors import ConfigError
+from pipeline.solver.cosim import FMU, cosimulate, signal
+from pipeline.solver.simulator import Simulator
+
+CONTROLLER = '''
+from pythonfmu import Fmi2Causality, Fmi2Slave, Real
+
+
+class PIValve(Fmi2Slave):
+    """A sampled PI controller on a valve: u = clip(kp e + ki sum(e h), -1, 1), e = r - y,
+    its integral advanced by each step's own length; failing its step after t_fail."""
+
+    author = "tests"
+    description = "sampled PI controller"
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.kp = 20.0
+        self.ki = 5.0
+        self.r = 0.0
+        self.t_fail = 1.0e9
+        self.y = 0.0
+        self.u = 0.0
+        self.integral = 0.0
+        for name in ("kp", "ki", "r", "t_fail"):
+            self.register_variable(Real(name, causality=Fmi2Causality.parameter,
+                                        variability="tunable"))
+        self.register_variable(Real("y", causality=Fmi2Causality.input))
+        self.register_variable(Real("u", causality=Fmi2Causality.output))
+
+    def do_step(self, current_time, step_size):
+        if current_time >= self.t_fail:
+            return False
+        e = self.r - self.y
+        self.integral += e * step_size
+        self.u = max(-1.0, min(1.0, self.kp * e + self.ki * self.integral))
+        return True
+'''
+
+
+@pytest.fixture(scope="module")
+def controller_fmu(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("fmu")
+    script = folder / "pi_valve.py"
+    script.write_text(CONTROLLER)
+    from pythonfmu import FmuBuilder
+
+    return Path(FmuBuilder.build_FMU(script, dest=folder))
+
+
+def _sim(**kw):
+    system, _ = _lift(0.0, viscous_friction=1e4)
+    return Simulator(system, np.array([S0]), step=5e-4, inputs={"lift": 0.0}, rtol=1e-2,
+                     atol=1e-7, **kw)
+
+
+def test_the_fmu_drives_the_machine_as_the_same_controller_written_in_python(controller_fmu):
+    goal, kp, ki, H = S0 + 0.04, 30.0, 10.0, 5e-3
+    fmu = FMU(controller_fmu, inputs={"y": "q:slide.d"}, outputs={"u": "lift"},
+              parameters={"kp": kp, "ki": ki, "r": goal})
+    r = cosimulate(_sim(), [fmu], 0.6, H)
+    assert r.verdict == "ok", r.report
+    # the same sampled law around a Simulator, by hand
+    sim, integral = _sim(), 0.0
+    while sim.t < 0.6 - 1e-12:
+        e = goal - sim.q[0]
+        integral += e * H
+        sim.step(H, {"lift": max(-1.0, min(1.0, kp * e + ki * integral))})
+    ref = sim.result()
+    assert np.abs(r.t - ref.t).max() < 1e-12
+    assert np.abs(r.q - ref.q).max() < 1e-12 and np.abs(r.states - ref.states).max() < 1e-6
+    assert abs(r.q[-1, 0] - goal) < 2e-3  # it took the mass to its goal
+
+
+def test_the_fmus_parameters_take_effect(controller_fmu):
+    runs = [cosimulate(_sim(), [FMU(controller_fmu, {"y": "q:slide.d"}, {"u": "lift"},
+                                    {"kp": kp, "ki": 0.0, "r": S0 + 0.04})], 0.2, 5e-3)
+            for kp in (5.0, 40.0)]
+    slow, fast = (x.q[-1, 0] - S0 for x in runs)
+    assert 0.0 < slow < fast  # a larger gain opens the valve further
+
+
+def test_an_fmu_that_fails_its_step_ends_the_run_partial_naming_it(controller_fmu):
+    fmu = FMU(controller_fmu, {"y": "q:slide.d"}, {"u": "lift"},
+              {"r": S0 + 0.04, "t_fail": 0.1})
+    r = cosimulate(_sim(), [fmu], 0.3, 5e-3)
+    assert r.verdict == "partial" and "its step at t = 0.1 s failed" in r.message
+    assert str(controller_fmu) in r.message and abs(r.t[-1] - 0.1) < 1e-9
+
+
+@pytest.mark.parametrize("fmu, match", [
+    ({"inputs": {"yy": "q:slide.d"}}, r"input 'yy': no such variable; its variables: "),
+    ({"inputs": {"u": "q:slide.d"}}, r"input 'u': expected a Real of causality input"),
+    ({"outputs": {"u": "valve"}}, r"output drives 'valve', which is not an input of the Sim"),
+    ({"inputs": {"y": "q:slide.x"}}, r"signal 'q:slide.x': expected time, q:<coordinate>"),
+    ({"parameters": {"kq": 1.0}}, r"parameter 'kq': no such variable"),
+])
+def test_bad_connections_are_named_before_anything_runs(controller_fmu, fmu, match):
+    spec = {"inputs": {"y": "q:slide.d"}, "outputs": {"u": "lift"}, **fmu}
+    sim = _sim()
+    with pytest.raises(ConfigError, match=match):
+        cosimulate(sim, [FMU(controller_fmu, **spec)], 0.1, 5e-3)
+    assert sim.t == 0.0  # nothing ran
+
+
+def test_a_missing_or_broken_fmu_is_one_line(tmp_path):
+    with pytest.raises(ConfigError, match="no such file"):
+        cosimulate(_sim(), [FMU(tmp_path / "none.fmu")], 0.1, 5e-3)
+    (tmp_path / "bad.fmu").write_bytes(b"not a zip")
+    with pytest.raises(ConfigError, match="not a readable FMU"):
+        cosimulate(_sim(), [FMU(tmp_path / "bad.fmu")], 0.1, 5e-3)
+
+
+def test_signals_name_coordinates_rates_states_and_markers():
+    sim = _sim()
+    sim.step(0.01, {"lift": 0.3})
+    assert signal(sim, "time") == pytest.approx(0.01)
+    assert signal(sim, "q:slide.d") == sim.q[0] and signal(sim, "qd:slide.d") == sim.qd[0]
+    assert signal(sim, "state:lift.p_a") == sim.state.z[0]
+    # the mass's frame rides the rail at height d (the rail's origin at ground z = 0)
+    assert signal(sim, "marker:mass.body:z") == pytest.approx(sim.q[0], abs=1e-12)
+
+
+def _workflow(tmp_path, fmu_path, parameters="{kp: 30.0, ki: 10.0, r: 0.24}", extra=""):
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "workflows"))
+    from test_hydraulic_workflow import LIFT
+
+    text = LIFT.replace(
+        "    command: {type: smooth_step, t0: 0.0, t1: 0.2, v0: 0.0, v1: 0.6}\n",
+        "    viscous_friction: 1.0e4\n").replace(
+        "    step: 5.0e-4\n",
+        "    step: 5.0e-4\n    macro_step: 5.0e-3\n    fmus:\n"
+        f"      - path: {fmu_path.name}\n        inputs: {{y: 'q:slide.d'}}\n"
+        f"        outputs: {{u: lift}}\n        parameters: {parameters}\n{extra}")
+    (tmp_path / fmu_path.name).write_bytes(fmu_path.read_bytes())
+    p = tmp_path / "lift.yaml"
+    p.write_text(text.replace("rtol: 1.0e-4", "rtol: 1.0e-2"))
+    return p
+
+
+def test_a_workflow_cosimulates_its_fmu_as_the_python_api_does(tmp_path, controller_fmu):
+    from pipeline.workflow import run_workflow
+
+    res = run_workflow(_workflow(tmp_path, controller_fmu), out_root=tmp_path / "out")
+    r = res.result("raise", "")
+    sim = _sim()
+    ref = cosimulate(sim, [FMU(controller_fmu, {"y": "q:slide.d"}, {"u": "lift"},
+                               {"kp": 30.0, "ki": 10.0, "r": 0.24})], 0.4, 5e-3)
+    assert r.verdict == ref.verdict and r.t.size == 81
+    assert np.abs(r.q - ref.q).max() < 1e-12
+    assert np.abs(r.states["lift.p_a"][1] - ref.state("lift.p_a")).max() < 1e-6
+
+
+def test_a_workflow_names_a_bad_fmu_connection_at_its_analysis(tmp_path, controller_fmu):
+    from pipeline.workflow import run_workflow
+
+    with pytest.raises(ConfigError, match=r"lift\.yaml:\d+: analyses\[0\]\.fmus: "
+                                          r"co-simulation: FMU .*parameter 'kq'"):
+        run_workflow(_workflow(tmp_path, controller_fmu, "{kq: 1.0}"),
+                     out_root=tmp_path / "out")
+    bad = _workflow(tmp_path, controller_fmu).read_text().replace("    macro_step: 5.0e-3\n", "")
+    (tmp_path / "lift.yaml").write_text(bad)
+    with pytest.raises(ConfigError, match=r"a co-simulation runs method generalized_alpha "
+                                          r"with a fixed step and a macro_step"):
+        run_workflow(tmp_path / "lift.yaml", out_root=tmp_path / "out")
