@@ -6,8 +6,9 @@ from __future__ import annotations
 import pytest
 
 
-@pytest.mark.parametrize("name", ["double_pendulum", "front_loader", "front_loader_hydraulic",
-                                  "mobile_crane", "slider_crank", "tractor_trailer"])
+@pytest.mark.parametrize("name", ["double_pendulum", "excavator_hydraulic", "front_loader",
+                                  "front_loader_hydraulic", "mobile_crane", "slider_crank",
+                                  "tractor_trailer"])
 def test_shipped_workflow_is_ok(quick_run, name):
     """The slider-crank's 'linear' case is the rod without geometric stiffening, shipped to
     show what it leaves out: it is 19 % off and says so (the axial load check), as its
