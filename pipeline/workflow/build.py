@@ -370,7 +370,7 @@ def _pid(wf: Workflow, mech, spec: dict, path: tuple):
     if isinstance(kw["reference"], dict):
         kw["reference"] = driver_from_dict(kw["reference"], wf.where(*path, "pid", "reference"),
                                            wf.base_dir)
-    if kw.get("measured", "stroke") != "stroke":
+    if kw.get("measured", "stroke") not in ("stroke", "p_a", "p_b"):
         _coordinate(wf, mech, str(kw["measured"]), *path, "pid", "measured")
     if isinstance(kw.get("output_limits"), list):
         kw["output_limits"] = tuple(kw["output_limits"])

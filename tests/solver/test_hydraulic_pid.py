@@ -60,8 +60,9 @@ def _reference(pid: PID, t_end, te):
 
     def rhs(t, y):
         s, v, pa, pb, xi = y
-        e = pid.reference.value(t) - s
-        w = pid.kp * e + xi - pid.kd * v
+        measured, rate = (pa, 0.0) if pid.measured == "p_a" else (s, v)
+        e = pid.reference.value(t) - measured
+        w = pid.kp * e + xi - pid.kd * rate
         u = min(max(w, lo), hi)
         qa = kv * (max(u, 0) * orifice(PS - pa) - max(-u, 0) * orifice(pa))
         qb = kv * (max(-u, 0) * orifice(PS - pb) - max(u, 0) * orifice(pb))
@@ -122,6 +123,31 @@ def test_the_controlled_lift_is_the_hand_written_model(case):
                      te, 1e-3)
         over, over_wound = r.q[:, 0].max() - goal, wound.q[:, 0].max() - goal
         assert 0.005 < over < 0.015 and over_wound > 0.08, (over, over_wound)
+
+
+def test_a_pressure_loop_is_the_hand_written_model_and_holds_its_reference():
+    """The piston side's pressure raised 20 bar by a PI loop: the pressure settles on its
+    reference (integral action) while the mass, pushed by more than its weight, rises
+    against the rod side's outflow (a pressure loop holds a force, not a position)."""
+    pid = PID(SmoothStep(0.0, 0.1, PA0, PA0 + 20e5), kp=2e-6, ki=2e-5, measured="p_a")
+    system, _ = _lift(pid, viscous_friction=VISCOUS)
+    te = np.linspace(0.0, 1.0, 51)
+    ref = _reference(pid, te[-1], te)
+    errors = []
+    for h in (5e-4, 2.5e-4):
+        r = _run(system, te, h)
+        assert r.success, r.message
+        errors.append((np.abs(r.q[:, 0] - ref[:, 0]).max(),
+                       np.abs(r.states[:, :2] - ref[:, 2:4]).max()))
+    (s1, _), (s2, p2) = errors
+    assert s2 < 1e-7 and p2 < 100.0 and s1 / s2 > 3.0, errors  # m; Pa of ~5 MPa
+    assert abs(r.states[-1, 0] - (PA0 + 20e5)) < 1e3
+    assert r.qd[-1, 0] > 0.01 and r.q[-1, 0] > S0 + 0.01
+
+
+def test_a_derivative_term_on_a_pressure_is_refused():
+    with pytest.raises(ConfigError, match="kd: a loop on the pressure p_a has no derivative"):
+        PID(PA0, kp=1e-6, kd=1e-8, measured="p_a")
 
 
 def test_a_controller_on_the_joint_coordinate_is_the_one_on_the_stroke():

@@ -167,7 +167,18 @@ def test_a_pid_commanded_cylinder_runs_as_the_python_api_does(tmp_path):
      r"forces\[0\]\.command\.pid\.measured: coordinate 'slide\.x' does not exist"),
     (PID_COMMAND.replace("kp: 20.0", "kp: -2.0"), r"forces\[0\]\.command\.pid: PID: kp"),
     (PID_COMMAND.replace("        kp: 20.0\n", ""), r"forces\[0\]\.command\.pid: missing field 'kp'"),
+    (PID_COMMAND.replace("slide.d", "p_a"),
+     r"forces\[0\]\.command\.pid: PID: kd: a loop on the pressure p_a has no derivative"),
 ])
 def test_a_bad_pid_is_named_at_its_line(tmp_path, command, match):
     with pytest.raises(ConfigError, match=r"lift\.yaml:\d+: " + match):
         run_workflow(_write(tmp_path, _with_pid(command=command)), out_root=tmp_path / "out")
+
+
+def test_a_pid_may_measure_a_chamber_pressure(tmp_path):
+    from pipeline.workflow import build_machine, load_workflow
+
+    command = PID_COMMAND.replace("slide.d", "p_a").replace("        kd: 0.5\n", "")
+    wf = load_workflow(_write(tmp_path, _with_pid(command=command)))
+    cyl = build_machine(wf, tmp_path / "links").system.forces[0]
+    assert cyl.command.measured == "p_a" and cyl.measured_index(None) == -2

@@ -47,7 +47,8 @@ the machine (the ``dissipated`` entry, with its sign: negative where the cylinde
 
 The command may come from a controller on the cylinder (``command=PID(...)``): a PID
 law with output limits and anti-windup by back-calculation (Astrom & Hagglund) on the
-cylinder's own stroke or on a joint coordinate (``measured``),
+cylinder's own stroke, on a joint coordinate or on one of its chamber pressures
+(``measured``; a pressure loop has no derivative term),
 
     e = r(t) - y,   v = k_p e + x_i - k_d y',   u = clip(v, u_min, u_max),
     x_i' = k_i e + (u - v) / T_t,
@@ -83,6 +84,8 @@ __all__ = ["PID", "HydraulicCylinder", "cylinder_force", "cylinder_rates", "pid_
 
 #: bar: the scale of a pressure state (Newton's and the error estimate's units)
 PRESSURE_UNIT = 1e5
+#: the chamber pressures a controller may measure, in the order of the states
+PRESSURES = ("p_a", "p_b")
 
 # par columns of the packed element
 _AA, _AB, _L0, _STROKE, _VA0, _VB0, _BETA, _PS, _PT, _KV, _DPL, _LEAK, _VISC, _COUL, _VS, \
@@ -95,8 +98,9 @@ class PID:
     """A PID controller commanding a hydraulic cylinder's valve (the module docstring):
     ``reference`` r(t) (a number, a driver or a table: m for the stroke, the coordinate's
     unit otherwise), gains ``kp`` (1 per unit of y), ``ki`` (per unit and second), ``kd``
-    (per unit per second), on ``measured`` ("stroke": the cylinder's own, m; or a joint
-    coordinate's name), output limited to ``output_limits`` (the valve's [-1, 1] by
+    (per unit per second), on ``measured`` ("stroke": the cylinder's own, m; "p_a" or
+    "p_b": its chamber pressure, Pa, without a derivative term; or a joint coordinate's
+    name), output limited to ``output_limits`` (the valve's [-1, 1] by
     default), anti-windup ``tracking_time`` T_t, s (None: the rule of the docstring)."""
 
     reference: Any
@@ -124,8 +128,12 @@ class PID:
                                or not tt > 0 or not math.isfinite(tt)):
             raise ConfigError(f"PID: tracking_time: expected seconds > 0, got {tt!r}")
         if not isinstance(self.measured, str) or not self.measured:
-            raise ConfigError(f"PID: measured: expected 'stroke' or a coordinate's name, "
-                              f"got {self.measured!r}")
+            raise ConfigError(f"PID: measured: expected 'stroke', 'p_a', 'p_b' or a "
+                              f"coordinate's name, got {self.measured!r}")
+        if self.measured in PRESSURES and self.kd:
+            raise ConfigError(f"PID: kd: a loop on the pressure {self.measured} has no "
+                              f"derivative term (the pressure's rate is the state "
+                              f"equation's own); give kd 0")
 
     def value(self, t: float) -> float:
         """The reference r(t): the history the compiled step evaluates once per step."""
@@ -312,10 +320,12 @@ class HydraulicCylinder(LineElement):
         return (1.0, c.kp, c.ki, c.kd, *map(float, c.output_limits), c.tracking, measured)
 
     def measured_index(self, mech) -> int:
-        """The measured coordinate's index, -1 for the stroke (ConfigError naming the
-        element for an unknown coordinate)."""
+        """The measured coordinate's index; -1 for the stroke, -2 and -3 for the pressures
+        p_a and p_b (ConfigError naming the element for an unknown coordinate)."""
         if not self.controlled or self.command.measured == "stroke":
             return -1
+        if self.command.measured in PRESSURES:
+            return -2 - PRESSURES.index(self.command.measured)
         try:
             return mech.index(self.command.measured)
         except ConfigError as exc:
@@ -513,7 +523,12 @@ def command_rates(par, command, length, sd, q, v, z, o, zd):
     if par[_PID] > 0.0:
         k = o + _state_count(par) - 1  # the integral term: the element's last state
         i = int(par[_MEAS])
-        y, yd = (length - par[_L0], sd) if i < 0 else (q[i], v[i])
+        if i >= 0:
+            y, yd = q[i], v[i]
+        elif i == -1:
+            y, yd = length - par[_L0], sd
+        else:  # a chamber pressure, kd = 0
+            y, yd = z[o - 2 - i], 0.0
         u, zd[k] = pid_law(par, command, y, yd, z[k])
         valve_rates(par, u, length, sd, z, o, zd)
     else:
