@@ -129,16 +129,24 @@ class _Slave:
         for _, name in self.inputs:
             signal(sim, name)  # an unknown signal: ConfigError before anything runs
         self.folder = extract(str(path))
-        self.slave = FMU2Slave(guid=md.guid, unzipDirectory=self.folder,
-                               modelIdentifier=md.coSimulation.modelIdentifier,
-                               instanceName=label)
-        self.slave.instantiate()
-        self.slave.setupExperiment(startTime=t0)
-        if par_refs:
-            self.slave.setReal(par_refs, [float(x) for x in spec.parameters.values()])
-        self.slave.enterInitializationMode()
-        self._set_inputs(sim)
-        self.slave.exitInitializationMode()
+        self.slave = None
+        try:
+            self.slave = FMU2Slave(guid=md.guid, unzipDirectory=self.folder,
+                                   modelIdentifier=md.coSimulation.modelIdentifier,
+                                   instanceName=label)
+            self.slave.instantiate()
+            self.slave.setupExperiment(startTime=t0)
+            if par_refs:
+                self.slave.setReal(par_refs, [float(x) for x in spec.parameters.values()])
+            self.slave.enterInitializationMode()
+            self._set_inputs(sim)
+            self.slave.exitInitializationMode()
+        except ConfigError:
+            self.close()
+            raise
+        except Exception as exc:  # noqa: BLE001 - a binary that will not load or start
+            self.close()
+            raise ConfigError(f"{self.where}: could not be started ({exc})") from None
 
     def _set_inputs(self, sim) -> None:
         if self.in_refs:
@@ -159,8 +167,9 @@ class _Slave:
         import shutil
 
         try:
-            self.slave.terminate()
-            self.slave.freeInstance()
+            if self.slave is not None:
+                self.slave.terminate()
+                self.slave.freeInstance()
         except Exception:  # noqa: BLE001,S110 - a failed FMU may refuse to terminate
             pass
         shutil.rmtree(self.folder, ignore_errors=True)

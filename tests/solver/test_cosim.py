@@ -132,6 +132,20 @@ def test_a_missing_or_broken_fmu_is_one_line(tmp_path):
         cosimulate(_sim(), [FMU(tmp_path / "bad.fmu")], 0.1, 5e-3)
 
 
+def test_an_fmu_that_cannot_start_is_one_line(tmp_path):
+    """Its initialisation raises (an FMU whose model fails to start): one ConfigError
+    naming the file, no traceback of the FMU's own."""
+    from pythonfmu import FmuBuilder
+
+    script = tmp_path / "broken.py"
+    script.write_text(CONTROLLER.replace("class PIValve", "class Broken").replace(
+        "    def do_step(", "    def exit_initialization_mode(self):\n"
+                           "        raise RuntimeError('no licence')\n\n    def do_step("))
+    fmu = Path(FmuBuilder.build_FMU(script, dest=tmp_path))
+    with pytest.raises(ConfigError, match=r"FMU .*Broken\.fmu.*could not be started"):
+        cosimulate(_sim(), [FMU(fmu, {"y": "q:slide.d"}, {"u": "lift"})], 0.1, 5e-3)
+
+
 def test_signals_name_coordinates_rates_states_and_markers():
     sim = _sim()
     sim.step(0.01, {"lift": 0.3})
