@@ -129,7 +129,7 @@ class _Slave:
         for _, name in self.inputs:
             signal(sim, name)  # an unknown signal: ConfigError before anything runs
         self.folder = extract(str(path))
-        self.slave = None
+        self.slave, self.started = None, False
         try:
             self.slave = FMU2Slave(guid=md.guid, unzipDirectory=self.folder,
                                    modelIdentifier=md.coSimulation.modelIdentifier,
@@ -141,6 +141,7 @@ class _Slave:
             self.slave.enterInitializationMode()
             self._set_inputs(sim)
             self.slave.exitInitializationMode()
+            self.started = True
         except ConfigError:
             self.close()
             raise
@@ -167,7 +168,9 @@ class _Slave:
         import shutil
 
         try:
-            if self.slave is not None:
+            # an FMU whose start failed is left as it is: FMI allows it little, and freeing
+            # one (pythonfmu's, in this process) corrupted the interpreter's memory
+            if self.started:
                 self.slave.terminate()
                 self.slave.freeInstance()
         except Exception:  # noqa: BLE001,S110 - a failed FMU may refuse to terminate
