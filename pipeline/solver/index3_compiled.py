@@ -129,7 +129,7 @@ class CompiledStepper:
             tfac = self._factors(te)
         else:
             teP = tvP = taP = np.zeros((te.size, cs.P.size))
-            tfac = np.zeros((te.size, self.data.forces.kind.size))
+            tfac = np.zeros((te.size, 2 * self.data.forces.kind.size))
         o, n, m, nz = te.size, cs.n, cs.m, z.size
         rec = (np.zeros((o, n)), np.zeros((o, n)), np.zeros((o, n)), np.zeros((o, m)),
                np.zeros((o, cs.P.size)), np.zeros((o, 4)), np.zeros(o), np.zeros((o, 2)),

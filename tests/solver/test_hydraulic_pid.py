@@ -52,7 +52,7 @@ def _reference(pid: PID, t_end, te):
     """The lift under the controller, in its own five states (module docstring)."""
     kv = QNOM / np.sqrt(DPNOM)
     lo, hi = pid.output_limits
-    ti = pid.kp / pid.ki
+    ti = pid.kp / pid.ki if pid.ki else np.inf
     tt = pid.tracking_time or (np.sqrt(ti * pid.kd / pid.kp) if pid.kd else ti)
 
     def orifice(dp):
@@ -62,7 +62,7 @@ def _reference(pid: PID, t_end, te):
         s, v, pa, pb, xi = y
         measured, rate = (pa, 0.0) if pid.measured == "p_a" else (s, v)
         e = pid.reference.value(t) - measured
-        w = pid.kp * e + xi - pid.kd * rate
+        w = pid.feedforward * pid.reference.rate(t) + pid.kp * e + xi - pid.kd * rate
         u = min(max(w, lo), hi)
         qa = kv * (max(u, 0) * orifice(PS - pa) - max(-u, 0) * orifice(pa))
         qb = kv * (max(-u, 0) * orifice(PS - pb) - max(u, 0) * orifice(pb))
@@ -80,7 +80,7 @@ def _run(system, te, step, **kw):
                     **{"rtol": 1e-5, "atol": 1e-8, **kw})
 
 
-@pytest.mark.parametrize("case", ["tracking", "saturating"])
+@pytest.mark.parametrize("case", ["tracking", "saturating", "feedforward"])
 def test_the_controlled_lift_is_the_hand_written_model(case):
     """Tracking: a 5 cm quintic move in 0.3 s, the output within its limits. Saturating: a
     20 cm step asked in 20 ms, the valve driven to its 0.6 limit and the integral held by
@@ -88,6 +88,8 @@ def test_the_controlled_lift_is_the_hand_written_model(case):
     second order in the step, and the mass ends near the reference."""
     if case == "tracking":
         pid = PID(SmoothStep(0.0, 0.3, S0, S0 + 0.05), kp=20.0, ki=40.0, kd=0.5)
+    elif case == "feedforward":  # k_ff ~ A_a / Q_u: the valve opens for the move itself
+        pid = PID(SmoothStep(0.0, 0.3, S0, S0 + 0.05), kp=5.0, feedforward=3.2)
     else:
         pid = PID(SmoothStep(0.0, 0.02, S0, S0 + 0.2), kp=30.0, ki=30.0,
                   output_limits=(-0.6, 0.6))
@@ -105,13 +107,20 @@ def test_the_controlled_lift_is_the_hand_written_model(case):
     stroke, pressure, integral = np.array(errors).T
     # m, Pa (of ~5 MPa), valve-command units; the clip's corners cost the saturating run
     # some of its order (and its error estimate calls it suspect at rtol 1e-5)
-    bound = (1e-8, 10.0, 1e-7) if case == "tracking" else (1e-6, 2e3, 1e-6)
+    bound = {"tracking": (1e-8, 10.0, 1e-7), "saturating": (1e-6, 2e3, 1e-6),
+             "feedforward": (5e-8, 100.0, 1e-7)}[case]
     assert stroke[-1] < bound[0] and pressure[-1] < bound[1] and integral[-1] < bound[2], \
         errors
     for e in (stroke, pressure):
         assert np.all(np.log2(e[:-1] / e[1:]) > 1.6), errors
     goal = pid.reference.value(te[-1])
-    if case == "tracking":
+    if case == "feedforward":  # the same loop without it lags the move several times more
+        lag = np.abs(r.q[:, 0] - [pid.reference.value(t) for t in te]).max()
+        slow = _run(_lift(replace(pid, feedforward=0.0), viscous_friction=VISCOUS)[0], te,
+                    2.5e-4)
+        lag_p = np.abs(slow.q[:, 0] - [pid.reference.value(t) for t in te]).max()
+        assert lag < 0.3 * lag_p, (lag, lag_p)
+    elif case == "tracking":
         # a valve-fed cylinder integrates its flow: the integral term overshoots a little
         # and returns slowly (0.2 mm off after 2 s)
         assert abs(ref[-1, 0] - goal) < 5e-4 and abs(r.q[-1, 0] - goal) < 5e-4
@@ -164,15 +173,16 @@ def test_the_compiled_rates_equal_the_numpy_methods():
     from pipeline.solver import dae_kernels as K
     from pipeline.solver.dae_data import compile_dae, force_factors
 
-    pid = PID(0.3, kp=8.0, ki=3.0, kd=0.2, measured="slide.d", output_limits=(-0.5, 0.8))
+    pid = PID(SmoothStep(0.0, 1.0, 0.2, 0.4), kp=8.0, ki=3.0, kd=0.2, measured="slide.d",
+              output_limits=(-0.5, 0.8), feedforward=1.5)
     system, _ = _lift(pid, spool_time_constant=0.01)
     data = compile_dae(system, np.arange(1), np.zeros(0, dtype=int))
     args = (K.kin_tuple(data.kin), K.mass_tuple(data.masses), data.K, data.D,
             data.gravity4, data.w, data.forces)
     for s, v, xi in ((0.25, 0.1, 0.05), (0.1, -0.3, 0.4), (0.2, 0.0, -0.9)):
         q, qd, z = np.array([s]), np.array([v]), np.array([60e5, 20e5, 0.1, xi])
-        zd = K.terms(q, qd, z, force_factors(data, [0.0])[0], *args)[6]
-        assert np.abs(zd - state_rates(system, q, qd, 0.0, z)).max() <= 1e-9 * np.abs(zd).max()
+        zd = K.terms(q, qd, z, force_factors(data, [0.4])[0], *args)[6]
+        assert np.abs(zd - state_rates(system, q, qd, 0.4, z)).max() <= 1e-9 * np.abs(zd).max()
 
 
 def test_the_simulators_input_by_the_cylinders_name_is_the_reference():

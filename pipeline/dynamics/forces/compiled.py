@@ -110,14 +110,20 @@ def compile_forces(system) -> tuple[ForceData, tuple]:
 
 
 def force_factors(histories: tuple, times: np.ndarray) -> np.ndarray:
-    """(k, F): each force element's history value at the times (k,) s (1 without one)."""
+    """(k, 2F): each force element's history value at the times (k,) s (1 without one),
+    then the rates a controller's feed-forward reads (its reference's; 0 elsewhere)."""
     times = np.asarray(times, dtype=float).reshape(-1)
-    out = np.ones((times.size, len(histories)))
+    F = len(histories)
+    out = np.ones((times.size, 2 * F))
+    out[:, F:] = 0.0
     for j, h in enumerate(histories):
         if h is P.TIME:
             out[:, j] = times
+            out[:, F + j] = 1.0
         elif h is not None:
             out[:, j] = [history_value(h, float(x), "history") for x in times]
+            if isinstance(h, H.PID) and h.feedforward:
+                out[:, F + j] = [h.rate(float(x)) for x in times]
     return out
 
 

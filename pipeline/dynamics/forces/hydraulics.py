@@ -50,12 +50,14 @@ law with output limits and anti-windup by back-calculation (Astrom & Hagglund) o
 cylinder's own stroke, on a joint coordinate or on one of its chamber pressures
 (``measured``; a pressure loop has no derivative term),
 
-    e = r(t) - y,   v = k_p e + x_i - k_d y',   u = clip(v, u_min, u_max),
+    e = r(t) - y,   v = k_ff r'(t) + k_p e + x_i - k_d y',   u = clip(v, u_min, u_max),
     x_i' = k_i e + (u - v) / T_t,
 
 its integral term x_i (output units) one more state of the element (``pid``); the
 derivative acts on the measurement (no kick when the reference jumps) and the tracking
 time T_t defaults to sqrt(T_i T_d) (T_i = k_p / k_i, T_d = k_d / k_p; T_i without k_d).
+The feed-forward k_ff r' opens the valve for the reference's own rate (k_ff ~ A / Q_u, the
+area over the valve's flow per unit command), so the loop need not lag to move.
 
 Not modelled (yet): the cushions' throttling near the ends (without end stops a stroke
 outside [0, stroke] is reported by the run's checks), cavitation (pressures below -1 bar
@@ -90,7 +92,7 @@ PRESSURES = ("p_a", "p_b")
 # par columns of the packed element
 _AA, _AB, _L0, _STROKE, _VA0, _VB0, _BETA, _PS, _PT, _KV, _DPL, _LEAK, _VISC, _COUL, _VS, \
     _QP, _PR, _KR, _VS0, _SPOOL, _TAU, _WV, _ZV, _OVL, _KE, _CE, \
-    _PID, _KP, _KI, _KD, _UMIN, _UMAX, _TT, _MEAS = range(34)
+    _PID, _KP, _KI, _KD, _UMIN, _UMAX, _TT, _MEAS, _KFF = range(35)
 
 
 @dataclass(frozen=True)
@@ -101,7 +103,8 @@ class PID:
     (per unit per second), on ``measured`` ("stroke": the cylinder's own, m; "p_a" or
     "p_b": its chamber pressure, Pa, without a derivative term; or a joint coordinate's
     name), output limited to ``output_limits`` (the valve's [-1, 1] by
-    default), anti-windup ``tracking_time`` T_t, s (None: the rule of the docstring)."""
+    default), anti-windup ``tracking_time`` T_t, s (None: the rule of the docstring), and
+    ``feedforward`` k_ff, the command per unit/s of the reference's rate."""
 
     reference: Any
     kp: float
@@ -110,9 +113,10 @@ class PID:
     measured: str = "stroke"
     output_limits: tuple = (-1.0, 1.0)
     tracking_time: float | None = None
+    feedforward: float = 0.0
 
     def __post_init__(self):
-        for key in ("kp", "ki", "kd"):
+        for key in ("kp", "ki", "kd", "feedforward"):
             x = getattr(self, key)
             if isinstance(x, bool) or not isinstance(x, int | float) or not x >= 0 \
                     or not math.isfinite(x):
@@ -140,6 +144,12 @@ class PID:
         from pipeline.dynamics.forces.loads import history_value
 
         return history_value(self.reference, t, "PID reference")
+
+    def rate(self, t: float) -> float:
+        """The reference's rate r'(t) (0 for a number or a held value)."""
+        from pipeline.dynamics.forces.loads import history_rate
+
+        return history_rate(self.reference, t)
 
     @property
     def tracking(self) -> float:
@@ -313,11 +323,12 @@ class HydraulicCylinder(LineElement):
 
     def _pid_parameters(self, measured: int) -> tuple:
         """(flag, kp, ki, kd, u_min, u_max, T_t, the measured coordinate's index or -1 for
-        the stroke) of the packed element."""
+        the stroke, k_ff) of the packed element."""
         c = self.command
         if not self.controlled:
-            return (0.0,) * 7 + (-1.0,)
-        return (1.0, c.kp, c.ki, c.kd, *map(float, c.output_limits), c.tracking, measured)
+            return (0.0,) * 7 + (-1.0, 0.0)
+        return (1.0, c.kp, c.ki, c.kd, *map(float, c.output_limits), c.tracking, measured,
+                c.feedforward)
 
     def measured_index(self, mech) -> int:
         """The measured coordinate's index; -1 for the stroke, -2 and -3 for the pressures
@@ -391,8 +402,10 @@ class HydraulicCylinder(LineElement):
         par = self.parameters()
         par[_MEAS] = self.measured_index(system.mechanism)
         out = np.empty(z.size)
-        command_rates(par, history_value(self.command, t, self.name), length, float(dl @ qd),
-                      np.asarray(q, dtype=float), np.asarray(qd, dtype=float), z, 0, out)
+        rate = self.command.rate(t) if self.controlled else 0.0
+        command_rates(par, history_value(self.command, t, self.name), rate, length,
+                      float(dl @ qd), np.asarray(q, dtype=float), np.asarray(qd, dtype=float),
+                      z, 0, out)
         return out
 
     def run_checks(self, system, r) -> list[str]:
@@ -504,10 +517,11 @@ def valve_rates(par, u, length, sd, z, o, zd):
 
 
 @njit(cache=True)
-def pid_law(par, r, y, yd, xi):
+def pid_law(par, r, rd, y, yd, xi):
     """(the valve command u, the integral term's rate x_i') of the controller (module
-    docstring) at the reference r, measurement y and its rate yd, integral term xi."""
-    v = par[_KP] * (r - y) + xi - par[_KD] * yd
+    docstring) at the reference r and its rate rd, measurement y and its rate yd,
+    integral term xi."""
+    v = par[_KFF] * rd + par[_KP] * (r - y) + xi - par[_KD] * yd
     u = min(max(v, par[_UMIN]), par[_UMAX])
     rate = 0.0
     if par[_KI] > 0.0:
@@ -516,9 +530,10 @@ def pid_law(par, r, y, yd, xi):
 
 
 @njit(cache=True)
-def command_rates(par, command, length, sd, q, v, z, o, zd):
+def command_rates(par, command, rate, length, sd, q, v, z, o, zd):
     """zd[o:] = the rates of the element's states z[o:] at the valve ``command`` (the
-    history's value; with a controller, its reference), length (m), stroke rate sd
+    history's value; with a controller, its reference, and ``rate`` its rate), length (m),
+    stroke rate sd
     (m/s) and coordinates q, rates v (a controller's measurement)."""
     if par[_PID] > 0.0:
         k = o + _state_count(par) - 1  # the integral term: the element's last state
@@ -529,7 +544,7 @@ def command_rates(par, command, length, sd, q, v, z, o, zd):
             y, yd = length - par[_L0], sd
         else:  # a chamber pressure, kd = 0
             y, yd = z[o - 2 - i], 0.0
-        u, zd[k] = pid_law(par, command, y, yd, z[k])
+        u, zd[k] = pid_law(par, command, rate, y, yd, z[k])
         valve_rates(par, u, length, sd, z, o, zd)
     else:
         valve_rates(par, command, length, sd, z, o, zd)
@@ -581,4 +596,6 @@ def cylinder_force(e, q, v, z, A, dA, factor, d, Q, Qnc):
 @njit(cache=True)
 def cylinder_rates(e, q, v, z, A, dA, factor, d, zd):
     length, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
-    command_rates(d.par[e], factor[e], length, dl @ v, q, v, z, d.ints[e, 4], zd)
+    # factor: the histories' values, then their rates (compiled.force_factors)
+    command_rates(d.par[e], factor[e], factor[d.kind.shape[0] + e], length, dl @ v, q, v, z,
+                  d.ints[e, 4], zd)

@@ -65,6 +65,13 @@ def history_value(history: Any, t: float, name: str) -> float:
     return float(f(t))
 
 
+def history_rate(history: Any, t: float) -> float:
+    """The rate of a time history at t (1/s of its value): its ``rate(t)`` where it has one
+    (a driver, a table), else 0 (a number, a held value)."""
+    f = getattr(history, "rate", None)
+    return float(f(t)) if callable(f) else 0.0
+
+
 @dataclass(frozen=True)
 class PointForce(ForceElement):
     """Force (3,) N in ground axes at a point ``offset`` (3,) m of a marker frame,
