@@ -15,7 +15,7 @@ from pydantic import AfterValidator, Field, field_validator, model_validator
 
 from pipeline.post.units import ANGLE, FORCE, LENGTH, STRESS
 from pipeline.post.views import check_camera
-from pipeline.workflow.link_spec import LinkSpec, Mat3, Pos3, Strict, Vec3
+from pipeline.workflow.link_spec import MAX_COORDINATE, LinkSpec, Mat3, Pos3, Strict, Vec3
 
 Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*$")]
 Inertia = Annotated[list[float], Field(min_length=6, max_length=6)] | Mat3
@@ -223,14 +223,19 @@ class FlexibleLink(Strict):
 LinkEntry = Annotated[GroundLink | RigidLink | FlexibleLink, Field(discriminator="type")]
 
 
+#: a joint coordinate's value or rate (rad, m; /s): within +-MAX_COORDINATE (1e308 overflowed
+#: the assembly's least squares)
+Coordinate = Annotated[float, Field(ge=-MAX_COORDINATE, le=MAX_COORDINATE)]
+
+
 class JointSpec(Strict):
     name: Name
     type: str = Field(description="revolute | prismatic | cylindrical | universal | spherical | "
                                   "planar | fixed | free")
     parent: str = Field(description="link.frame of the parent side")
     child: str = Field(description="link.frame of the child side")
-    initial: list[float] = Field(default_factory=list,
-                                 description="approximate assembly values, rad / m")
+    initial: list[Coordinate] = Field(default_factory=list,
+                                      description="approximate assembly values, rad / m")
 
     @field_validator("parent", "child")
     @classmethod
@@ -248,8 +253,8 @@ class ForceSpec(Strict, extra="allow"):
 
 
 class InitialSpec(Strict):
-    coordinates: dict[str, float] = Field(default_factory=dict, description="rad / m")
-    velocities: dict[str, float] = Field(default_factory=dict, description="rad/s, m/s")
+    coordinates: dict[str, Coordinate] = Field(default_factory=dict, description="rad / m")
+    velocities: dict[str, Coordinate] = Field(default_factory=dict, description="rad/s, m/s")
 
 
 class CaseSpec(Strict):

@@ -58,6 +58,9 @@ def _line_of(text: str, needle: str) -> int:
 
 @pytest.mark.parametrize("old, new, needle, path_text, expect", [
     ("    mass: 2.0", "    mas: 2.0", "mas: 2.0", "links.arm", "unknown key"),
+    # the fuzzer's 1e300 as a joint's start overflowed the assembly's least squares
+    ("arm.A, initial: [0.3]}", "arm.A, initial: [1.0e300]}", "initial: [1.0e300]",
+     "joints[0].initial", "less than or equal to 1000000"),
     ("  - {name: J1, type: revolute, parent: ground.O, child: arm.A, initial: [0.3]}",
      "  - {name: J1, type: revolute, parent: ground.O, child: arm.C, initial: [0.3]}",
      "child: arm.C", "joints[0].child", "has no frame 'C'"),
