@@ -491,8 +491,8 @@ def _with_inputs(system, declared: dict, t0: float):
     for f in system.forces:
         if f.name not in held:
             new_forces.append(f)
-        elif getattr(f, "controlled", False):  # a controller's input is its reference
-            new_forces.append(replace(f, command=replace(f.command, reference=held[f.name])))
-        else:
+        elif hasattr(f, "with_input"):  # the contract's own (a controller: its reference)
+            new_forces.append(f.with_input(held[f.name]))
+        else:  # a duck-typed element: its history field
             new_forces.append(replace(f, **{getattr(f, "HISTORY", "history"): held[f.name]}))
     return replace(system, forces=tuple(new_forces), drivers=drivers), held

@@ -36,7 +36,8 @@ Contract of a :class:`ForceElement` subclass (thesis eqs. 4.148-4.174, DESIGN §
    element from ``own_states``.
 8. ``HISTORY`` names the field holding the element's time history (``history`` by
    default; a hydraulic cylinder's valve ``command``): the compiled step evaluates it
-   once per step, and a stepping API's input by the element's name replaces it.
+   once per step, and a stepping API's input by the element's name replaces it
+   (``with_input``; a controlled cylinder's input is its controller's reference).
 
 Subclasses implement ``_force(system, tree, q, qd, t)``; the public methods
 check the shapes once. The helpers :func:`marker_pose`, :func:`marker_point`
@@ -177,6 +178,13 @@ class ForceElement:
     def state_scales(self) -> np.ndarray:
         """(k,) the size of a meaningful change of each state, in its unit."""
         return np.ones(len(self.STATES))
+
+    def with_input(self, history) -> ForceElement:
+        """This element with ``history`` (a ``value(t)`` object) in place of its own
+        (contract rule 8)."""
+        from dataclasses import replace
+
+        return replace(self, **{self.HISTORY: history})
 
     def own_states(self, z) -> np.ndarray:
         """The element's states z (k,) as an array; ConfigError where the analysis asking

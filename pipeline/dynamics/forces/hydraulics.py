@@ -71,7 +71,7 @@ with every line element (:func:`pipeline.dynamics.forces.markers.line_geometry`)
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, ClassVar
 
 import numpy as np
@@ -319,16 +319,23 @@ class HydraulicCylinder(LineElement):
                          self.spool_time_constant or 0.0,
                          2 * math.pi * (self.spool_frequency or 0.0), self.spool_damping,
                          self.spool_overlap, self.end_stiffness or 0.0, self.end_damping,
-                         *self._pid_parameters(-1)], dtype=float)
+                         *self._pid_parameters()], dtype=float)
 
-    def _pid_parameters(self, measured: int) -> tuple:
-        """(flag, kp, ki, kd, u_min, u_max, T_t, the measured coordinate's index or -1 for
-        the stroke, k_ff) of the packed element."""
+    def _pid_parameters(self) -> tuple:
+        """(flag, kp, ki, kd, u_min, u_max, T_t, the measured signal (-1 here: the packing
+        and the numpy rates set it from the mechanism, measured_index), k_ff) of the
+        packed element."""
         c = self.command
         if not self.controlled:
             return (0.0,) * 7 + (-1.0, 0.0)
-        return (1.0, c.kp, c.ki, c.kd, *map(float, c.output_limits), c.tracking, measured,
+        return (1.0, c.kp, c.ki, c.kd, *map(float, c.output_limits), c.tracking, -1.0,
                 c.feedforward)
+
+    def with_input(self, history) -> HydraulicCylinder:
+        """The valve command set from outside; with a controller, its reference."""
+        if self.controlled:
+            return replace(self, command=replace(self.command, reference=history))
+        return super().with_input(history)
 
     def measured_index(self, mech) -> int:
         """The measured coordinate's index; -1 for the stroke, -2 and -3 for the pressures
