@@ -2,23 +2,34 @@
 
 The same sums as :mod:`mass_matrix`, :mod:`velocity_terms` and :mod:`gravity`
 (the reference implementation, kept for clarity and for the tests comparing
-the two), as one loop over the massive links on flat arrays. Why: in numpy
-the per-link 4x4 products are call overhead, not arithmetic (front-end loader:
-~0.35 ms per state in numpy, a few us compiled).
+the two), on flat arrays, arranged so that their cost grows with the square of the
+links of a chain, not its cube.
 
 Per link l with modal coordinates eta (m,) and rates eta':
 
     J = C + sum_a eta_a (C'_a + C'_a^T) + sum_ab eta_a eta_b C''_ab
     N_a = C'_a + sum_b eta_b C''_ba,  Ne = sum_c N_c eta'_c,  G_a = sum_c C''_ac eta'_c
     M_ij += tr(dA_i J dA_j^T),  M_ia += tr(dA_i N_a A^T),  M_ab += tr(A C''_ab A^T)
-    h_i += tr(dA_i (A'' J^T + 2 A' Ne^T)^T)... i.e. dA_i : (A'' J^T + 2 A' Ne^T)
+    h_i += dA_i : Z,  Z = A'' J^T + 2 A' Ne^T
     h_a += A : (A'' N_a + 2 A' G_a^T)
     Q_i += dA_i : (g J[:, 3]^T),  Q_a += (N_a[3, :] A^T) g
 
 with a link's second-order mass moments G (zeros for linear modes), S = sum eta_a eta_b
 G_ab / 2: J[:, :3] += S, J[:3, :] += S^T, N_a[:, :3] += sum_b G_ab eta_b, and
-h_i += dA_i : (A[:, :3] S''^T), S'' = sum eta'_a eta'_b G_ab
+Z += A[:, :3] S''^T, S'' = sum eta'_a eta'_b G_ab
 (:func:`pipeline.dynamics.mass_matrix.link_terms`).
+
+Composite bodies. A coordinate i local to the step that places link c (its joint's
+motions and the modes of the frame it hangs on) moves c and every link below it rigidly
+with c: dA_l/dq_i = W A_l, W = (dA_c/dq_i) A_c^{-1}, the same (4, 4) W for the whole
+subtree of c. So the sums over links collapse into sums over subtrees,
+
+    M_ij = sum over carriers (c, i) above-or-at (c', j) of W_ci : (W_c'j Jc_c'),
+    h_i = W_ci : Hc_c,   Q_i = W_ci : (g mc_c^T),
+
+with the composites Jc_c = sum_{l below c} A_l J_l A_l^T, Hc_c = sum Z_l A_l^T and
+mc_c = sum A_l J_l[:, 3], gathered leaves-first. A chain of N links costs N^2 / 2
+products of 16 terms instead of the N^3 / 6 of the link-by-link sum.
 """
 
 from __future__ import annotations
@@ -37,12 +48,15 @@ __all__ = ["CompiledMasses", "closed_state", "compile_masses", "inertia_terms", 
 
 @dataclass(frozen=True)
 class CompiledMasses:
-    """Mass data of the B massive links, padded to MM modes.
+    """Mass data of the B massive links, padded to MM modes, and the tree they hang in.
 
     link (B,) link index; n_modes (B,); idx (B, MM) modal coordinates in q;
     C (B, 4, 4); Cp (B, MM, 4, 4); Cpp (B, MM, MM, 4, 4); G (B, MM, MM, 4, 3) the
     second-order mass moments (zeros where a link has none); has_G (B,) whether a link has
-    them (the kernels skip their terms for the others).
+    them (the kernels skip their terms for the others). The tree of the L links: parent
+    (L,) the link each hangs from (-1 for the root), order (L - 1,) the other links
+    parents-first, n_local (L,) and local (L, KL) the coordinates of the step that places
+    each link (Step.local).
     """
 
     link: np.ndarray
@@ -53,17 +67,41 @@ class CompiledMasses:
     Cpp: np.ndarray
     G: np.ndarray
     has_G: np.ndarray
+    parent: np.ndarray
+    order: np.ndarray
+    n_local: np.ndarray
+    local: np.ndarray
+
+    def arrays(self) -> tuple:
+        """The arrays in the order of the kernels' arguments (after the poses and g)."""
+        return (self.link, self.n_modes, self.idx, self.C, self.Cp, self.Cpp, self.G,
+                self.has_G, self.parent, self.order, self.n_local, self.local)
 
 
 def compile_masses(system) -> CompiledMasses:
-    """Flatten ``system.mass_links`` (a :class:`pipeline.dynamics.System`)."""
+    """Flatten ``system.mass_links`` and its mechanism's tree (a
+    :class:`pipeline.dynamics.System`)."""
     links = system.mass_links
     B = len(links)
     MM = max([1] + [body.n_modes for _, body, _ in links])
+    mech = system.mechanism
+    steps, slot = mech.table.steps, mech.table.tree_slot
+    L = len(mech.links)
+    order = np.array(mech.placement[1:], dtype=np.int64)
+    KL = max([1] + [steps[slot[li]].local.size for li in order])
+    parent = np.full(L, -1, dtype=np.int64)
+    n_local = np.zeros(L, dtype=np.int64)
+    local = np.zeros((L, KL), dtype=np.int64)
+    for li in order:
+        st = steps[slot[li]]
+        parent[li] = st.frm
+        n_local[li] = st.local.size
+        local[li, :st.local.size] = st.local
     out = CompiledMasses(np.zeros(B, dtype=np.int64), np.zeros(B, dtype=np.int64),
                          np.zeros((B, MM), dtype=np.int64), np.zeros((B, 4, 4)),
                          np.zeros((B, MM, 4, 4)), np.zeros((B, MM, MM, 4, 4)),
-                         np.zeros((B, MM, MM, 4, 3)), np.zeros(B, dtype=np.bool_))
+                         np.zeros((B, MM, MM, 4, 3)), np.zeros(B, dtype=np.bool_),
+                         parent, order, n_local, local)
     for b, (li, body, idx) in enumerate(links):
         m = body.n_modes
         out.link[b], out.n_modes[b] = li, m
@@ -92,8 +130,7 @@ def inertia_terms(cm: CompiledMasses, tree, q: np.ndarray, qd: np.ndarray | None
     M, h, Qg = _kernel(q, coordinate_vector(qd, n, "qd") if rates else np.zeros(n), rates,
                        np.ascontiguousarray(tree.A), np.ascontiguousarray(tree.dA),
                        np.ascontiguousarray(Ad), np.ascontiguousarray(Add),
-                       gravity4, cm.link, cm.n_modes,
-                       cm.idx, cm.C, cm.Cp, cm.Cpp, cm.G, cm.has_G)
+                       gravity4, *cm.arrays())
     return M, (h if rates else None), Qg
 
 
@@ -116,32 +153,57 @@ def _mmt_add(X, Y, c, out):
                               + X[i, 3] * Y[j, 3])
 
 
+@njit(cache=True, inline='always')
+def _affine_inverse(A, out):
+    """out = A^{-1} for an affine 4x4 [R t; 0 1] (R invertible, not necessarily a
+    rotation: a flexible frame's is I + a small skew part)."""
+    a, b, c = A[0, 0], A[0, 1], A[0, 2]
+    d, e, f = A[1, 0], A[1, 1], A[1, 2]
+    g, h, k = A[2, 0], A[2, 1], A[2, 2]
+    c0, c1, c2 = e * k - f * h, f * g - d * k, d * h - e * g
+    r = 1.0 / (a * c0 + b * c1 + c * c2)
+    out[0, 0], out[0, 1], out[0, 2] = c0 * r, (c * h - b * k) * r, (b * f - c * e) * r
+    out[1, 0], out[1, 1], out[1, 2] = c1 * r, (a * k - c * g) * r, (c * d - a * f) * r
+    out[2, 0], out[2, 1], out[2, 2] = c2 * r, (b * g - a * h) * r, (a * e - b * d) * r
+    for i in range(3):
+        out[i, 3] = -(out[i, 0] * A[0, 3] + out[i, 1] * A[1, 3] + out[i, 2] * A[2, 3])
+        out[3, i] = 0.0
+    out[3, 3] = 1.0
+
+
 @njit(cache=True)
-def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G, has_G):
+def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G, has_G,
+            parent, order, n_local, local):
     n = q.shape[0]
+    L = A.shape[0]
     MM = Cp.shape[1]
+    KL = local.shape[1]
     M = np.zeros((n, n))
     h = np.zeros(n)
     Qg = np.zeros(n)
-    X = np.zeros((n, 4, 4))
     J = np.zeros((4, 4))
     N = np.zeros((MM, 4, 4))
     Gm = np.zeros((MM, 4, 4))
     Z = np.zeros((4, 4))
     T1 = np.zeros((4, 4))
     T2 = np.zeros((4, 4))
-    nz = np.empty(n, dtype=np.int64)
+    Y = np.zeros((4, 4))
+    W = np.zeros((L, KL, 4, 4))
+    Jc = np.zeros((L, 4, 4))
+    Hc = np.zeros((L, 4, 4))
+    mc = np.zeros((L, 4))
+    own = np.zeros((L, MM, 4, 4))  # A N_a^T A^T of each massive flexible link's modes
+    massive = np.full(L, -1)
+    # W of every carrier: the rigid motion that coordinate local[c, k] gives c's subtree
+    for o in range(order.shape[0]):
+        c = order[o]
+        if n_local[c]:
+            _affine_inverse(A[c], T1)
+            for k in range(n_local[c]):
+                _mm(dA[c, local[c, k]], T1, W[c, k])
     for b in range(link.shape[0]):
         li, m = link[b], n_modes[b]
-        # the coordinates this link's pose depends on (dA_i = 0 for the others: their terms
-        # are exact zeros, skipped)
-        cnt = 0
-        for i in range(n):
-            for k in range(16):
-                if dA[li, i, k // 4, k % 4] != 0.0:
-                    nz[cnt] = i
-                    cnt += 1
-                    break
+        massive[li] = b
         # J(eta) and N_a(eta)
         J[:] = C[b]
         for a in range(m):
@@ -166,36 +228,17 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G, 
                         J[j, k] += 0.5 * ea * v
                         J[k, j] += 0.5 * ea * v
         Al = A[li]
-        # M_ij += (dA_i J) : dA_j
-        for ii in range(cnt):
-            i = nz[ii]
-            _mm(dA[li, i], J, X[i])
-        for ii in range(cnt):
-            i = nz[ii]
-            for jj in range(ii, cnt):
-                j = nz[jj]
-                v = _frob(X[i], dA[li, j])
-                M[i, j] += v
-                if j != i:
-                    M[j, i] += v
-        # gravity: dA_i : (g J[:, 3]^T)
-        for ii in range(cnt):
-            i = nz[ii]
-            s = 0.0
-            for k in range(4):
-                for l in range(4):
-                    s += dA[li, i, k, l] * g[k] * J[l, 3]
-            Qg[i] += s
+        # this link's share of its composites: A J A^T and A J[:, 3]
+        _mm(Al, J, T1)
+        _mmt_add(T1, Al, 1.0, Jc[li])
+        for r in range(4):
+            mc[li, r] += T1[r, 3]
         for a in range(m):
             ia = idx[b, a]
-            # M_ia += dA_i : (A N_a^T); M_ab += (A C''_ab) : A
+            # own[a] = A N_a^T A^T (for M_ia += W_i : own[a]); M_ab += (A C''_ab) : A
             T1[:] = 0.0
             _mmt_add(Al, N[a], 1.0, T1)
-            for ii in range(cnt):
-                i = nz[ii]
-                v = _frob(dA[li, i], T1)
-                M[i, ia] += v
-                M[ia, i] += v
+            _mmt_add(T1, Al, 1.0, own[li, a])
             for c in range(m):
                 _mm(Al, Cpp[b, a, c], T2)
                 M[ia, idx[b, c]] += _frob(T2, Al)
@@ -206,7 +249,7 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G, 
             Qg[ia] += s
         if not rates:
             continue
-        # h_i += dA_i : (A'' J^T + 2 A' Ne^T)
+        # Z = A'' J^T + 2 A' Ne^T (+ A[:, :3] S''^T); the composite gathers Z A^T
         Z[:] = 0.0
         _mmt_add(Add[li], J, 1.0, Z)
         if m:
@@ -224,8 +267,7 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G, 
                     if sjk != 0.0:
                         for r in range(4):
                             Z[r, j] += Al[r, k] * sjk
-        for ii in range(cnt):
-            h[nz[ii]] += _frob(dA[li, nz[ii]], Z)
+        _mmt_add(Z, Al, 1.0, Hc[li])
         # h_a += A : (A'' N_a + 2 A' G_a^T),  G_a = sum_c C''_ac eta'_c
         for a in range(m):
             Gm[a] = 0.0
@@ -234,6 +276,52 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G, 
             _mm(Add[li], N[a], T2)
             _mmt_add(Ad[li], Gm[a], 2.0, T2)
             h[idx[b, a]] += _frob(Al, T2)
+    # composites, leaves first
+    for o in range(order.shape[0] - 1, -1, -1):
+        c = order[o]
+        p = parent[c]
+        Jc[p] += Jc[c]
+        mc[p] += mc[c]
+        if rates:
+            Hc[p] += Hc[c]
+    for o in range(order.shape[0]):
+        c = order[o]
+        for k in range(n_local[c]):
+            i = local[c, k]
+            Wk = W[c, k]
+            # M_ij over the carriers (e, j) at or above (c, i): W_ej : (W_ci Jc_c)
+            _mm(Wk, Jc[c], Y)
+            e = c
+            kk = k
+            while e >= 0:
+                for k2 in range(kk + 1):
+                    j = local[e, k2]
+                    v = _frob(W[e, k2], Y)
+                    M[j, i] += v
+                    if e != c or k2 != k:
+                        M[i, j] += v
+                e = parent[e]
+                kk = n_local[e] - 1 if e >= 0 else -1
+            s = 0.0
+            for r in range(4):
+                for l in range(4):
+                    s += Wk[r, l] * g[r] * mc[c, l]
+            Qg[i] += s
+            if rates:
+                h[i] += _frob(Wk, Hc[c])
+        # M_ia of this link's own modes with the carriers at or above it
+        b = massive[c]
+        if b >= 0:
+            for a in range(n_modes[b]):
+                ia = idx[b, a]
+                e = c
+                while e >= 0:
+                    for k2 in range(n_local[e]):
+                        j = local[e, k2]
+                        v = _frob(W[e, k2], own[c, a])
+                        M[j, ia] += v
+                        M[ia, j] += v
+                    e = parent[e]
     return M, h, Qg
 
 
@@ -260,15 +348,13 @@ def closed_state(kin, masses: CompiledMasses, q_guess: np.ndarray, rows: np.ndar
     out = _closed_state(np.array(q_guess, dtype=float), rows, dep, cols,
                         np.ascontiguousarray(rates_cols, dtype=float),
                         np.ascontiguousarray(accels_cols, dtype=float), weights, tol, max_iter,
-                        max_move, gravity4, kin.arrays(), masses.link,
-                        masses.n_modes, masses.idx, masses.C, masses.Cp, masses.Cpp,
-                        masses.G, masses.has_G)
+                        max_move, gravity4, kin.arrays(), masses.arrays())
     return out[1:] if out[0] else None
 
 
 @njit(cache=True)
 def _closed_state(q, rows, dep, cols, rates_cols, accels_cols, weights, tol, max_iter,
-                  max_move, g, kin, link, m_modes, idx, C, Cp, Cpp, G, has_G):
+                  max_move, g, kin, mass):
     n = q.shape[0]
     nd, nc = dep.shape[0], cols.shape[0]
     qd = np.zeros(n)
@@ -337,8 +423,7 @@ def _closed_state(q, rows, dep, cols, rates_cols, accels_cols, weights, tol, max
         cacc[cols[c]] = accels_cols[c]
     for a in range(nd):
         cacc[dep[a]] = cd[a]
-    M, h, Qg = _kernel(q, qd, True, A, dA, Ad, Add, g, link, m_modes, idx, C, Cp, Cpp, G,
-                       has_G)
+    M, h, Qg = _kernel(q, qd, True, A, dA, Ad, Add, g, *mass)
     return True, q, r, J, X, qd, cacc, A, dA, Ad, Add, M, h, Qg
 
 

@@ -38,7 +38,7 @@ def kin_tuple(cm) -> tuple:
 
 
 def mass_tuple(cm) -> tuple:
-    return (cm.link, cm.n_modes, cm.idx, cm.C, cm.Cp, cm.Cpp, cm.G, cm.has_G)
+    return cm.arrays()
 
 
 @njit(cache=True)
@@ -446,7 +446,7 @@ def hermite(q0, v0, q1, v1, h, s):
 @njit(cache=True)
 def _gravity_potential(q, A, g, mass):
     """V = -sum_b g . (first moment of body b in ground) (J(eta)[:, 3] per body), J."""
-    link, n_modes, idx, C, Cp, Cpp, G, has_G = mass
+    link, n_modes, idx, C, Cp, Cpp, G, has_G = mass[:8]
     V = 0.0
     col = np.empty(4)
     for b in range(link.shape[0]):
