@@ -31,6 +31,12 @@ def run(args: argparse.Namespace) -> int:
     from pipeline.workflow.link_spec import load_link_spec_lines, locate
 
     spec, lines = load_link_spec_lines(args.spec)
+    if args.convergence and spec.geometry.type == "mesh":
+        from pipeline.core.errors import ConfigError
+
+        raise ConfigError(f"{args.spec}: --convergence: link {spec.name!r} comes from the mesh "
+                          f"file {spec.geometry.path}, which this tool does not coarsen: "
+                          "compare its frequencies with a coarser mesh from the FE tool")
     try:
         link, status = reduce_spec(spec, args.spec.parent, args.out, args.rebuild)
     except PipelineError as exc:  # name the spec's file, line and field

@@ -28,6 +28,7 @@ from pipeline.invariants.participation import align_repeated
 from pipeline.invariants.reduced_link import FrameModes, ReducedLink
 from pipeline.meshing.budget import MeshBudget
 from pipeline.meshing.geometry import BeamGeometry, SolidGeometry
+from pipeline.meshing.imported import MeshFileGeometry
 from pipeline.meshing.mesh_data import MeshData
 
 logger = logging.getLogger(__name__)
@@ -60,7 +61,7 @@ class LinkRequest:
     """
 
     name: str
-    geometry: SolidGeometry | BeamGeometry
+    geometry: SolidGeometry | BeamGeometry | MeshFileGeometry
     material: Any  # pipeline.fem.Material
     interfaces: tuple[InterfaceSpec, ...]
     reference: str
@@ -98,6 +99,8 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
         mesh = build_mesh(request.geometry, name, budget=request.mesh_budget)
     with stage(f"assembling K, M of link '{name}'", times):
         model = _assemble(request, mesh)
+    if isinstance(request.geometry, MeshFileGeometry):
+        _check_imported(request, mesh, model)
     with stage(f"tying interfaces of link '{name}'", times):
         from pipeline.fem.interfaces import tie_interfaces
 
@@ -207,6 +210,33 @@ def _assemble(request: LinkRequest, mesh: MeshData) -> FemModel:
     if request.point_masses:
         model = add_point_masses(model, request.point_masses, where)
     return model
+
+
+#: the largest link this tool expects, m across (a mesh in mm read as m is 1000x that of
+#: its machine: a 5 m boom becomes 5 km)
+MAX_LINK_SIZE = 300.0
+
+
+def _check_imported(request: LinkRequest, mesh: MeshData, model) -> None:
+    """A mesh file read in the wrong unit, caught by the link's size, the spec's positions
+    (m) and its expected mass (:func:`pipeline.meshing.imported.check_units`)."""
+    from pipeline.meshing.imported import check_units
+
+    g = request.geometry
+    where = f"link '{request.name}'"
+    size = float(np.linalg.norm(np.ptp(mesh.points, axis=0)))
+    if size > MAX_LINK_SIZE:
+        raise ConfigError(f"{where}: the mesh read in geometry.units {g.units!r} is {size:.4g} m "
+                          f"across, more than a machine's link ({MAX_LINK_SIZE:g} m): is the "
+                          "file in mm?")
+    ux = np.zeros(model.n_dof)
+    ux[model.node_dofs[:, 0]] = 1.0
+    mass = float(ux @ (model.mass @ ux))
+    positions = {f"interface '{i.name}' origin": i.origin for i in request.interfaces}
+    positions.update({f"marker '{m.name}'": m.position for m in request.markers})
+    check_units(mesh, positions, g.units, where, g.expected_mass, mass)
+    logger.info("link '%s': imported mesh %s: %d nodes, %.4g m across, %.6g kg", request.name,
+                g.path.name, mesh.n_points, size, mass)
 
 
 def _reference_first(interfaces, reference: str) -> tuple[Interface, ...]:

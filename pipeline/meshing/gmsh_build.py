@@ -21,7 +21,8 @@ from pipeline.core.errors import ConfigError, MeshError, PipelineError
 from pipeline.core.progress import stage
 from pipeline.meshing.budget import MeshBudget, check_mesh_budget, mesh_in_child
 from pipeline.meshing.geometry import BeamGeometry, SolidGeometry
-from pipeline.meshing.mesh_data import MeshData
+from pipeline.meshing.imported import MeshFileGeometry, read_mesh
+from pipeline.meshing.mesh_data import MeshData, boundary_faces, orient_tets
 from pipeline.meshing.recipes import MESH_RECIPES
 
 logger = logging.getLogger(__name__)
@@ -34,12 +35,6 @@ GMSH_LINE = 1
 TET10_GMSH_TO_MESHIO = np.array([0, 1, 2, 3, 4, 5, 6, 7, 9, 8])
 #: Vertex pairs of the tet10 edge nodes 4..9 in gmsh's order.
 _GMSH_TET10_EDGES = [(0, 1), (1, 2), (0, 2), (0, 3), (2, 3), (1, 3)]
-#: Swap of vertices 1 and 2 (with their edge nodes) that flips a tet's orientation.
-_TET_FLIP = {4: np.array([0, 2, 1, 3]), 10: np.array([0, 2, 1, 3, 6, 5, 4, 7, 9, 8])}
-#: Outward faces of a positively oriented tet (meshio order), as triangle(6) nodes.
-_TET_FACES = np.array([[0, 2, 1, 6, 5, 4], [0, 1, 3, 4, 8, 7],
-                       [1, 2, 3, 5, 9, 8], [0, 3, 2, 7, 9, 6]])
-
 #: Meshing options measured fastest on the 2-core machine (tests/meshing/
 #: test_bench_mesh.py, P2 bar 0.4 x 0.008 x 0.004 m, mesh_size 2.05 mm, 18 600
 #: nodes, whole build_mesh): HXT 3D (10) 0.29 s, Delaunay (1) 0.49 s, Frontal (4)
@@ -54,10 +49,10 @@ MESH_OPTIONS: dict[str, float] = {
 }
 
 
-def build_mesh(geometry: SolidGeometry | BeamGeometry, name: str, *,
+def build_mesh(geometry: SolidGeometry | BeamGeometry | MeshFileGeometry, name: str, *,
                options: Mapping[str, float] | None = None, budget: MeshBudget | None = None,
                isolate: bool = True) -> MeshData:
-    """Mesh one link's geometry with gmsh.
+    """Mesh one link's geometry with gmsh (or read a mesh file: :mod:`imported`).
 
     Parameters
     ----------
@@ -105,9 +100,11 @@ def build_mesh(geometry: SolidGeometry | BeamGeometry, name: str, *,
             if isolate else functools.partial(build_solid, options=opts)
     elif isinstance(geometry, BeamGeometry):
         build = _build_beam
+    elif isinstance(geometry, MeshFileGeometry):
+        build = read_mesh
     else:
-        raise ConfigError(f"link {name!r}: geometry: expected SolidGeometry or BeamGeometry, "
-                          f"got {type(geometry).__name__}")
+        raise ConfigError(f"link {name!r}: geometry: expected SolidGeometry, BeamGeometry or "
+                          f"MeshFileGeometry, got {type(geometry).__name__}")
     with stage(f"meshing link '{name}'"):
         return build(geometry, name)
 
@@ -169,7 +166,7 @@ def build_solid(geometry: SolidGeometry, name: str, options: Mapping[str, float]
         points, tets, tags = _volume_mesh(gmsh, geometry.order, where)
         group_nodes = _physical_group_nodes(gmsh, tags, where)
         cad = _cad_properties(gmsh)
-    tets = _orient(points, tets)
+    tets = orient_tets(points, tets)
     cell, face = ("tetra10", "triangle6") if geometry.order == 2 else ("tetra", "triangle")
     return MeshData(points=points, cells={cell: tets}, kind="solid", order=geometry.order,
                     boundary={face: boundary_faces(tets)}, groups=group_nodes, cad=cad,
@@ -317,35 +314,6 @@ def _cad_properties(gmsh) -> dict[str, np.ndarray]:
         return {}
     return {"volume": np.array(volume), "centroid": first / volume,
             "second_moment": (second + second.T) / 2}
-
-
-def _orient(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
-    """Flip negatively oriented tets (vertex volume < 0) to positive orientation."""
-    neg = tet_signed_volumes(points, tets) < 0
-    if np.any(neg):
-        tets = tets.copy()
-        tets[neg] = tets[neg][:, _TET_FLIP[tets.shape[1]]]
-    return tets
-
-
-def tet_signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
-    """Signed volumes (k,) m^3 of the straight tets spanned by the 4 vertices of ``tets``."""
-    p0, p1, p2, p3 = (points[tets[:, i]] for i in range(4))
-    return np.einsum("ij,ij->i", np.cross(p1 - p0, p2 - p0), p3 - p0) / 6.0
-
-
-def boundary_faces(tets: np.ndarray) -> np.ndarray:
-    """Outward boundary triangles (k, 3) or triangle6 (k, 6) of positively oriented tets.
-
-    A face is on the boundary when exactly one tet has it.
-    """
-    n_face = 3 if tets.shape[1] == 4 else 6
-    faces = tets[:, _TET_FACES[:, :n_face]].reshape(-1, n_face)
-    key = np.sort(faces[:, :3], axis=1).astype(np.int64)
-    n = int(key.max()) + 1 if key.size else 1
-    code = (key[:, 0] * n + key[:, 1]) * n + key[:, 2]  # exact for n < 2e6 nodes
-    _, inverse, counts = np.unique(code, return_inverse=True, return_counts=True)
-    return faces[counts[inverse] == 1]
 
 
 #: most elements of a beam link (a 6-DOF-per-node model: 6e6 DOF)

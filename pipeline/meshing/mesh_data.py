@@ -52,3 +52,39 @@ class MeshData:
     @property
     def n_points(self) -> int:
         return int(self.points.shape[0])
+
+
+#: vertex and midside swaps that flip a tet (meshio order: the midside nodes follow)
+_TET_FLIP = {4: np.array([0, 2, 1, 3]), 10: np.array([0, 2, 1, 3, 6, 5, 4, 7, 9, 8])}
+#: Outward faces of a positively oriented tet (meshio order), as triangle(6) nodes.
+_TET_FACES = np.array([[0, 2, 1, 6, 5, 4], [0, 1, 3, 4, 8, 7],
+                       [1, 2, 3, 5, 9, 8], [0, 3, 2, 7, 9, 6]])
+
+
+def orient_tets(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Flip negatively oriented tets (vertex volume < 0) to positive orientation."""
+    neg = tet_signed_volumes(points, tets) < 0
+    if np.any(neg):
+        tets = tets.copy()
+        tets[neg] = tets[neg][:, _TET_FLIP[tets.shape[1]]]
+    return tets
+
+
+def tet_signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Signed volumes (k,) m^3 of the straight tets spanned by the 4 vertices of ``tets``."""
+    p0, p1, p2, p3 = (points[tets[:, i]] for i in range(4))
+    return np.einsum("ij,ij->i", np.cross(p1 - p0, p2 - p0), p3 - p0) / 6.0
+
+
+def boundary_faces(tets: np.ndarray) -> np.ndarray:
+    """Outward boundary triangles (k, 3) or triangle6 (k, 6) of positively oriented tets.
+
+    A face is on the boundary when exactly one tet has it.
+    """
+    n_face = 3 if tets.shape[1] == 4 else 6
+    faces = tets[:, _TET_FACES[:, :n_face]].reshape(-1, n_face)
+    key = np.sort(faces[:, :3], axis=1).astype(np.int64)
+    n = int(key.max()) + 1 if key.size else 1
+    code = (key[:, 0] * n + key[:, 1]) * n + key[:, 2]  # exact for n < 2e6 nodes
+    _, inverse, counts = np.unique(code, return_inverse=True, return_counts=True)
+    return faces[counts[inverse] == 1]

@@ -19,6 +19,7 @@ from pipeline.invariants.reduce import LinkRequest, MarkerRequest
 from pipeline.invariants.store import FORMAT_VERSION
 from pipeline.meshing.budget import MeshBudget
 from pipeline.meshing.geometry import BeamGeometry, SolidGeometry
+from pipeline.meshing.imported import MeshFileGeometry
 from pipeline.meshing.selectors import SELECTORS
 from pipeline.workflow.link_spec import BUDGET_FIELDS, LinkSpec
 
@@ -82,6 +83,10 @@ def link_request(spec: LinkSpec, base_dir: Path) -> tuple[LinkRequest, tuple[Pat
         geometry = SolidGeometry(g.recipe, dict(g.params), g.mesh_size, g.order, path)
         budget = MeshBudget(g.time_limit, None if g.memory_limit is None
                             else g.memory_limit * 2**30)
+    elif g.type == "mesh":
+        path = (base_dir / g.path).resolve()
+        files = (path,) if path.is_file() else ()
+        geometry = MeshFileGeometry(path, g.units, g.expected_mass)
     else:
         geometry = BeamGeometry(np.asarray(g.points, float), g.element_size,
                                 tuple(g.vertex_names))

@@ -82,6 +82,17 @@ class BeamGeometrySpec(Strict):
     element_size: float = Field(gt=0, description="target beam element length, m")
 
 
+class MeshGeometrySpec(Strict):
+    type: Literal["mesh"]
+    path: str = Field(description="mesh file of another FE tool, relative to the spec file: "
+                                  "Abaqus .inp, Nastran .bdf/.nas, gmsh .msh, .vtu, .xdmf")
+    units: Literal["m", "mm", "cm", "in", "ft"] = Field(
+        description="length unit of the file's coordinates (scaled to m)")
+    expected_mass: float | None = Field(
+        None, gt=0, description="the link's mass as the FE tool reports it, kg: checked "
+                                "within 5 % (catches a wrong unit or density)")
+
+
 class GroupSelector(Strict):
     type: Literal["group"]
     name: str
@@ -174,7 +185,8 @@ class ModesSpec(Strict):
 
 class LinkSpec(Strict):
     name: str = Field(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*$")
-    geometry: Annotated[SolidGeometrySpec | BeamGeometrySpec, Field(discriminator="type")]
+    geometry: Annotated[SolidGeometrySpec | BeamGeometrySpec | MeshGeometrySpec,
+                        Field(discriminator="type")]
     material: MaterialSpec
     sections: list[SectionSpec] = Field(default_factory=list, validate_default=True,
                                        description="beam sections, one per member")

@@ -2,7 +2,9 @@
 
 import numpy as np
 
-from pipeline.meshing.gmsh_build import TET10_GMSH_TO_MESHIO, _orient, boundary_faces
+from pipeline.meshing.gmsh_build import TET10_GMSH_TO_MESHIO
+from pipeline.meshing.mesh_data import boundary_faces
+from pipeline.meshing.mesh_data import orient_tets as _orient
 from tests.meshing.conftest import TET10_EDGES, signed_tet_volumes
 
 # unit cube split into 6 positively oriented tets around the diagonal 0-6
