@@ -19,6 +19,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
     parser.add_argument("--render", action="store_true",
                         help="also render the first mode shapes to <out>/<name>_modes.png")
+    parser.add_argument("--hdf5", type=Path, metavar="FILE",
+                        help="also write the reduced link to FILE in the open HDF5 format "
+                             "of docs/hdf5_format.md, for other tools")
     parser.add_argument("--convergence", action="store_true",
                         help="also reduce the link on a mesh twice as coarse and print each "
                              "frequency's estimated discretisation error")
@@ -49,6 +52,10 @@ def run(args: argparse.Namespace) -> int:
                "static_coverage": coverage_report(link)}
     if args.convergence:
         summary["frequency_convergence"] = _convergence(spec, args, link)
+    if args.hdf5 is not None:
+        from pipeline.invariants.hdf5 import write_hdf5
+
+        summary["hdf5"] = str(write_hdf5(link, args.hdf5))
     if args.render:
         from pipeline.post.render import render_modes
 
@@ -88,6 +95,8 @@ def _print_table(s: dict) -> None:
     if s.get("peak_memory_mib") is not None:
         t.add_row("peak memory of the process", f"{s['peak_memory_mib'] / 1024:.2f} GiB")
     t.add_row("artifact", s["artifact"])
+    if "hdf5" in s:
+        t.add_row("HDF5 export", s["hdf5"])
     if "render" in s:
         t.add_row("mode shapes", s["render"])
     con.print(t)
