@@ -153,16 +153,23 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
             "reference_conditions": {"reference": request.reference, "chord": request.chord,
                                      "craig_bampton": basis.settings.get("cb_interfaces", [])},
             "interface_compliance": compliance, **stiffening, **(meta or {})}
-    with stage(f"stress modes of link '{name}'", times):
-        S = _stress_to_body(model, ref.pose, stress_modes(model, basis.shapes))
+    S = None
+    if "material" in model.extras or model.kind == "beam":
+        with stage(f"stress modes of link '{name}'", times):
+            S = _stress_to_body(model, ref.pose, stress_modes(model, basis.shapes))
     info["stage_seconds"] = times.as_dict()  # with the stress modes
     info["factorisation"] = basis.settings.get("factorisation")
     info["peak_memory_mib"] = peak_memory_mib()
-    info["stress"] = ({"kind": "resultants", "components": list(RESULTANTS),
-                       "units": "N, N m, element axes"} if model.kind == "beam" else
-                      {"kind": "voigt", "components": list(VOIGT),
-                       "units": "Pa, body axes", "recovery": "P2 element stress at its nodes, "
-                                                             "mean over the elements"})
+    if S is None:
+        info["stress"] = {"unavailable": "the link's K and M came from another FE code as "
+                                         "matrices, without its element formulation: no "
+                                         "stress modes"}
+    elif model.kind == "beam":
+        info["stress"] = {"kind": "resultants", "components": list(RESULTANTS),
+                          "units": "N, N m, element axes"}
+    else:
+        info["stress"] = {"kind": "voigt", "components": list(VOIGT), "units": "Pa, body axes",
+                          "recovery": "P2 element stress at its nodes, mean over the elements"}
     link = _to_body_frame(name, model, mesh, basis, moments, motions, markers, ref, info)
     link = replace(link, stress_modes=S)
     if KG is not None:
@@ -189,7 +196,16 @@ def _assemble(request: LinkRequest, mesh: MeshData) -> FemModel:
 
     where = f"link '{request.name}'"
     check_material(request.material, where)
-    if mesh.kind == "solid":
+    matrices = getattr(request.geometry, "matrices", None)
+    if matrices is not None:
+        from pipeline.fem.imported import read_matrices
+
+        if request.geometric_stiffening:
+            raise ConfigError(f"{where}: modes.geometric_stiffening: needs the element "
+                              "formulation, which a link imported as matrices does not carry: "
+                              "leave it off (or import the mesh alone and assemble it here)")
+        model = read_matrices(matrices, mesh, request.geometry.scale, request.name)
+    elif mesh.kind == "solid":
         if request.material.nu > NEARLY_INCOMPRESSIBLE:
             logger.warning(
                 "%s: material.nu = %g is nearly incompressible: displacement-based P2 "

@@ -28,19 +28,58 @@ from pipeline.meshing.mesh_data import MeshData, boundary_faces, orient_tets, te
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["MESH_FORMATS", "UNITS", "MeshFileGeometry", "check_units", "read_mesh"]
+__all__ = ["MASS_UNITS", "MATRIX_FORMATS", "MESH_FORMATS", "UNITS", "MatrixFiles",
+           "MeshFileGeometry", "check_units", "read_mesh"]
 
 #: file suffix -> meshio format name
 MESH_FORMATS = {".inp": "abaqus", ".bdf": "nastran", ".nas": "nastran", ".fem": "nastran",
                 ".msh": "gmsh", ".vtu": "vtu", ".vtk": "vtk", ".xdmf": "xdmf"}
 #: length unit -> metres
 UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "in": 0.0254, "ft": 0.3048}
+#: mass unit -> kg (of a consistent set with the length unit and seconds)
+MASS_UNITS = {"kg": 1.0, "t": 1000.0, "g": 1e-3}
+#: the matrix files :mod:`pipeline.fem.imported` reads
+MATRIX_FORMATS = ("calculix", "abaqus")
 #: volume cells the FE stage takes, and those it does not (with what to do instead)
 _TETS = ("tetra10", "tetra")
 _OTHER_VOLUMES = ("hexahedron", "hexahedron20", "hexahedron27", "wedge", "wedge15",
                   "wedge18", "pyramid", "pyramid13", "pyramid14")
 #: the largest file read, bytes (a 2 GB text mesh is ~20 M nodes, beyond a link)
 MAX_MESH_BYTES = 2 * 2**30
+
+
+@dataclass(frozen=True)
+class MatrixFiles:
+    """Where a link's K and M come from.
+
+    format : ``calculix`` or ``abaqus``; stiffness, mass : the matrix files; dofs : the
+    CalculiX ``.dof`` file (None for abaqus); nodes_from : the FE code's input file whose
+    ``*NODE`` lines number the nodes; mass_unit : a key of :data:`MASS_UNITS`.
+    """
+
+    format: str
+    stiffness: Path
+    mass: Path
+    nodes_from: Path
+    dofs: Path | None = None
+    mass_unit: str = "kg"
+
+    def __post_init__(self) -> None:
+        if self.format not in MATRIX_FORMATS:
+            raise ConfigError(f"geometry.matrices.format: expected one of {MATRIX_FORMATS}, "
+                              f"got {self.format!r}")
+        if self.mass_unit not in MASS_UNITS:
+            raise ConfigError(f"geometry.matrices.mass_unit: expected one of "
+                              f"{sorted(MASS_UNITS)}, got {self.mass_unit!r}")
+        for name in ("stiffness", "mass", "nodes_from", "dofs"):
+            if getattr(self, name) is not None:
+                object.__setattr__(self, name, Path(getattr(self, name)))
+        if self.format == "calculix" and self.dofs is None:
+            raise ConfigError("geometry.matrices.dofs: CalculiX matrices need their .dof file")
+
+    def files(self) -> tuple[Path, ...]:
+        return tuple(p for p in (self.stiffness, self.mass, self.dofs, self.nodes_from)
+                     if p is not None)
 
 
 @dataclass(frozen=True)
@@ -55,6 +94,9 @@ class MeshFileGeometry:
         Length unit of the file's coordinates (a key of :data:`UNITS`).
     expected_mass : float, optional
         The link's mass as the FE tool reports it, kg (checked by :func:`check_units`).
+    matrices : MatrixFiles, optional
+        The FE tool's own K and M of this mesh, used instead of assembling them here
+        (:mod:`pipeline.fem.imported`).
 
     Examples
     --------
@@ -66,6 +108,7 @@ class MeshFileGeometry:
     path: Path
     units: str = "m"
     expected_mass: float | None = None
+    matrices: MatrixFiles | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "path", Path(self.path))

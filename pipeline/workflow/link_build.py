@@ -19,7 +19,7 @@ from pipeline.invariants.reduce import LinkRequest, MarkerRequest
 from pipeline.invariants.store import FORMAT_VERSION
 from pipeline.meshing.budget import MeshBudget
 from pipeline.meshing.geometry import BeamGeometry, SolidGeometry
-from pipeline.meshing.imported import MeshFileGeometry
+from pipeline.meshing.imported import MatrixFiles, MeshFileGeometry
 from pipeline.meshing.selectors import SELECTORS
 from pipeline.workflow.link_spec import BUDGET_FIELDS, LinkSpec
 
@@ -85,8 +85,16 @@ def link_request(spec: LinkSpec, base_dir: Path) -> tuple[LinkRequest, tuple[Pat
                             else g.memory_limit * 2**30)
     elif g.type == "mesh":
         path = (base_dir / g.path).resolve()
-        files = (path,) if path.is_file() else ()
-        geometry = MeshFileGeometry(path, g.units, g.expected_mass)
+        matrices = None
+        if g.matrices is not None:
+            mx = g.matrices
+            matrices = MatrixFiles(mx.format, (base_dir / mx.stiffness).resolve(),
+                                   (base_dir / mx.mass).resolve(), path,
+                                   None if mx.dofs is None else (base_dir / mx.dofs).resolve(),
+                                   mx.mass_unit)
+        geometry = MeshFileGeometry(path, g.units, g.expected_mass, matrices)
+        files = tuple(p for p in ((path,) + (matrices.files() if matrices else ()))
+                      if p.is_file())
     else:
         geometry = BeamGeometry(np.asarray(g.points, float), g.element_size,
                                 tuple(g.vertex_names))

@@ -82,6 +82,17 @@ class BeamGeometrySpec(Strict):
     element_size: float = Field(gt=0, description="target beam element length, m")
 
 
+class MatricesSpec(Strict):
+    format: Literal["calculix", "abaqus"] = Field(
+        description="calculix: .sti/.mas/.dof of *FREQUENCY, SOLVER=MATRIXSTORAGE; abaqus: "
+                    "coordinate-format .mtx of *MATRIX GENERATE")
+    stiffness: str = Field(description="stiffness matrix file, relative to the spec file")
+    mass: str = Field(description="mass matrix file, relative to the spec file")
+    dofs: str | None = Field(None, description="CalculiX .dof file (node.direction per row)")
+    mass_unit: Literal["kg", "t", "g"] = Field(
+        "kg", description="the FE model's mass unit (t with mm: N/mm stiffness)")
+
+
 class MeshGeometrySpec(Strict):
     type: Literal["mesh"]
     path: str = Field(description="mesh file of another FE tool, relative to the spec file: "
@@ -91,6 +102,19 @@ class MeshGeometrySpec(Strict):
     expected_mass: float | None = Field(
         None, gt=0, description="the link's mass as the FE tool reports it, kg: checked "
                                 "within 5 % (catches a wrong unit or density)")
+    matrices: MatricesSpec | None = Field(
+        None, description="the FE tool's own free-free K and M of this mesh (path then is "
+                          "its .inp input), used instead of assembling them here")
+
+    @model_validator(mode="after")
+    def _matrices_need_inp(self):
+        if self.matrices is not None and not self.path.lower().endswith(".inp"):
+            raise ValueError("with matrices, path is the FE tool's .inp input (its *NODE "
+                             "lines number the matrices' rows)")
+        if self.matrices is not None and self.matrices.format == "calculix" and \
+                self.matrices.dofs is None:
+            raise ValueError("CalculiX matrices need matrices.dofs (the .dof file)")
+        return self
 
 
 class GroupSelector(Strict):

@@ -222,8 +222,9 @@ def _stress_target(spec: str, mech, parts) -> tuple[str, str, str, int]:
                           f"(frames: {names})")
     red = part.reduced
     if not red.stress_modes.size:
-        raise ConfigError(f"series {spec!r}: link {link!r} has no stress modes (reduce it "
-                          "again with this version)")
+        why = red.meta.get("stress", {}).get("unavailable") or \
+            "reduce it again with this version"
+        raise ConfigError(f"series {spec!r}: link {link!r} has no stress modes ({why})")
     allowed = BEAM_STRESS if red.kind == "beam" else SOLID_STRESS
     if comp not in allowed:
         raise ConfigError(f"series {spec!r}: quantity {comp!r}: expected one of "

@@ -104,13 +104,15 @@ modes: {{count: 6}}
 
 
 GROUPS = """  - {name: pivot, selector: {type: group, name: pivot}, origin: [0, 0.01, 0.005]}
-  - {name: tip, selector: {type: group, name: tip}, origin: [0.4, 0.01, 0.005]}"""
+  - {name: tip, selector: {type: group, name: tip}, origin: [0.4, 0.01, 0.005], kind: rbe3}"""
 PLANES = """  - {name: pivot, selector: {type: plane, point: [0, 0.01, 0.005], normal: [1, 0, 0]}}
-  - {name: tip, selector: {type: plane, point: [0.4, 0.01, 0.005], normal: [1, 0, 0]}}"""
+  - {name: tip, selector: {type: plane, point: [0.4, 0.01, 0.005], normal: [1, 0, 0]},
+     kind: rbe3}"""
 
 
-def _calculix_frequencies(tmp_path: Path, box, n: int = 6) -> np.ndarray:
-    """Clamped frequencies, Hz, of CalculiX's C3D10 model of the same mesh (mm, t, s)."""
+def _calculix_deck(box, clamped: bool = True, storage: bool = False, n: int = 6) -> str:
+    """CalculiX input of the box (mm, t, s): clamped at x = 0, or free with its K and M
+    written (``storage``: *FREQUENCY, SOLVER=MATRIXSTORAGE)."""
     pts, tets, pivot, _ = box
     rows = ["*NODE, NSET=NALL"] + [f"{i + 1}, {p[0]:.12g}, {p[1]:.12g}, {p[2]:.12g}"
                                    for i, p in enumerate(pts)]
@@ -121,14 +123,23 @@ def _calculix_frequencies(tmp_path: Path, box, n: int = 6) -> np.ndarray:
     # CalculiX reads 20 characters a field: 7.849999999999999e-09 would be 7.85
     rows += ["*MATERIAL, NAME=STEEL", "*ELASTIC", f"{E * 1e-6:.12g}, {NU:.12g}", "*DENSITY",
              f"{RHO * 1e-12:.12g}", "*SOLID SECTION, ELSET=EALL, MATERIAL=STEEL", "*STEP",
-             "*FREQUENCY", str(n), "*BOUNDARY", "FIX, 1, 3", "*END STEP"]
-    work = tmp_path / "ccx"
-    work.mkdir()
-    (work / "box.inp").write_text("\n".join(rows) + "\n")
-    run = subprocess.run(["ccx", "-i", "box"], cwd=work, capture_output=True, text=True,
+             "*FREQUENCY" + (", SOLVER=MATRIXSTORAGE" if storage else ""), str(n)]
+    rows += (["*BOUNDARY", "FIX, 1, 3"] if clamped else []) + ["*END STEP"]
+    return "\n".join(rows) + "\n"
+
+
+def _run_calculix(work: Path, deck: str, job: str = "box") -> str:
+    work.mkdir(exist_ok=True)
+    (work / f"{job}.inp").write_text(deck)
+    run = subprocess.run(["ccx", "-i", job], cwd=work, capture_output=True, text=True,
                          timeout=300, check=False)
     assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
-    dat = (work / "box.dat").read_text()
+    return (work / f"{job}.dat").read_text()
+
+
+def _calculix_frequencies(tmp_path: Path, box, n: int = 6) -> np.ndarray:
+    """Clamped frequencies, Hz, of CalculiX's C3D10 model of the same mesh (mm, t, s)."""
+    dat = _run_calculix(tmp_path / "ccx", _calculix_deck(box, n=n))
     table = dat.split("E I G E N V A L U E   O U T P U T")[1]
     rows = re.findall(r"^\s+(\d+)\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s*$", table, re.MULTILINE)
     return np.array([float(r[3]) for r in rows[:n]])
@@ -138,10 +149,11 @@ def _calculix_frequencies(tmp_path: Path, box, n: int = 6) -> np.ndarray:
 @pytest.mark.parametrize("fmt, suffix, interfaces", [("abaqus", "inp", GROUPS),
                                                      ("nastran", "bdf", PLANES)])
 def test_imported_link_has_calculix_frequencies(tmp_path, box, fmt, suffix, interfaces):
-    """The clamped modes of the imported mesh against CalculiX on the same mesh. Measured:
-    the first two agree to the 7 digits CalculiX prints, the sixth within 1.4e-5 (the
-    difference grows with the mode's order, as a difference in the elements' mass
-    integration would); bounded at 3e-5."""
+    """The clamped modes of the imported mesh (assembled here) against CalculiX's on the same
+    mesh, the tip an averaging (rbe3) interface that adds no stiffness. Measured: the first
+    two within 2.4e-7, the first six within 2.2e-5 (the difference grows with the mode's
+    order, as from the two codes' element integration; with CalculiX's own matrices the
+    next test agrees to 6e-7); bounded at 3e-5."""
     from pipeline.workflow.link_build import reduce_spec
 
     _write(tmp_path / f"box.{suffix}", box, fmt)
@@ -191,3 +203,60 @@ def test_gmsh_physical_groups_become_node_groups(tmp_path, box):
     assert np.array_equal(np.sort(read.points[read.groups["tip_face"]], axis=0),
                           np.sort(pts[tip] * 1e-3, axis=0))
     assert len(read.groups["steel"]) == len(pts)
+
+
+def _abaqus_mtx(sti: Path, dof: Path, out: Path) -> None:
+    """CalculiX's upper-triangle matrix rewritten in Abaqus' coordinate .mtx form (node,
+    dof, node, dof, value), lower triangle, as *MATRIX OUTPUT writes it."""
+    rows = [tuple(map(int, d.split("."))) for d in dof.read_text().split()]
+    data = np.loadtxt(sti, ndmin=2)
+    with open(out, "w") as f:
+        f.write("** written from CalculiX matrices for the test\n")
+        for i, j, v in data:
+            a, b = rows[int(j) - 1], rows[int(i) - 1]  # (col, row) of the upper: the lower
+            f.write(f"{a[0]}, {a[1]}, {b[0]}, {b[1]}, {v:.17e}\n")
+
+
+@pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (apt calculix-ccx) absent")
+@pytest.mark.parametrize("form", ["calculix", "abaqus"])
+def test_calculix_matrices_give_calculix_frequencies(tmp_path, box, form):
+    """K and M assembled by CalculiX (free-free, mm and t), reduced here: the clamped
+    frequencies are CalculiX's own from the same matrices, to its 7 printed digits (6e-7
+    measured); the mass is rho V; no stress modes, and that is said."""
+    from pipeline.workflow.link_build import reduce_spec
+
+    work = tmp_path / "free"
+    _run_calculix(work, _calculix_deck(box, clamped=False, storage=True), "model")
+    if form == "calculix":
+        extra = (", matrices: {format: calculix, stiffness: free/model.sti, mass: "
+                 "free/model.mas, dofs: free/model.dof, mass_unit: t}")
+    else:
+        _abaqus_mtx(work / "model.sti", work / "model.dof", work / "model_STIF1.mtx")
+        _abaqus_mtx(work / "model.mas", work / "model.dof", work / "model_MASS1.mtx")
+        extra = (", matrices: {format: abaqus, stiffness: free/model_STIF1.mtx, mass: "
+                 "free/model_MASS1.mtx, mass_unit: t}")
+    spec = _spec(tmp_path, "free/model.inp", "mm", PLANES, extra)
+    link, _ = reduce_spec(spec, tmp_path, tmp_path / "out")
+    ref = _calculix_frequencies(tmp_path, box)
+    ours = np.asarray(link.frequencies_hz)[:6]
+    assert np.allclose(ours, ref, rtol=1e-6), (ours, ref)
+    assert link.mass == pytest.approx(RHO * 0.4 * 0.02 * 0.01, rel=1e-9)
+    assert link.stress_modes.size == 0 and "unavailable" in link.meta["stress"]
+
+
+@pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (apt calculix-ccx) absent")
+def test_matrices_of_another_mesh_or_a_clamped_model_are_refused(tmp_path, box):
+    from pipeline.workflow.link_build import reduce_spec
+
+    work = tmp_path / "clamped"
+    _run_calculix(work, _calculix_deck(box, clamped=True, storage=True), "model")
+    extra = (", matrices: {format: calculix, stiffness: clamped/model.sti, mass: "
+             "clamped/model.mas, dofs: clamped/model.dof, mass_unit: t}")
+    with pytest.raises(MeshError, match="mesh nodes have no rows.*free-free"):
+        reduce_spec(_spec(tmp_path, "clamped/model.inp", "mm", GROUPS, extra), tmp_path,
+                    tmp_path / "out")
+    with pytest.raises(ConfigError, match="geometric_stiffening"):
+        spec = _spec(tmp_path, "clamped/model.inp", "mm", GROUPS, extra)
+        spec = spec.model_copy(update={"modes": spec.modes.model_copy(
+            update={"geometric_stiffening": True})})
+        reduce_spec(spec, tmp_path, tmp_path / "out2")
