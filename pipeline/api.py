@@ -182,25 +182,28 @@ def __dir__():
     return sorted(__all__)
 
 
-def reduce_link(spec: str | Path, cache_dir: str | Path = "output/links",
+def reduce_link(spec: str | Path, cache_dir: str | Path | None = None,
                 rebuild: bool = False) -> ReducedLink:
     """The reduced link of a link spec YAML (``docs/link_specs.md``).
 
     Meshes (gmsh), assembles K and M (scikit-fem), computes the modes and the mass
-    invariants C, C'_a, C''_ab -- or reads them back from ``cache_dir`` when the spec and
-    the files it names are unchanged (content hash). Paths in the spec are relative to
-    the spec's folder.
+    invariants C, C'_a, C''_ab -- or reads them back from the link cache ``cache_dir``
+    (default: the one every command shares, ``$FLEXMECH_LINKS`` or ``output/links``) when
+    the spec and the files it names are unchanged (content hash). Paths in the spec are
+    relative to the spec's folder.
 
     Raises
     ------
     ConfigError
         A bad spec: file:line: field: what was expected.
     """
-    from pipeline.workflow.link_build import reduce_spec
+    from pipeline.invariants.cache import default_links_dir
+    from pipeline.workflow.link_build import reduce_cached
     from pipeline.workflow.link_spec import load_link_spec
 
     spec = Path(spec)
-    link, _ = reduce_spec(load_link_spec(spec), spec.parent, Path(cache_dir), rebuild)
+    cache = default_links_dir() if cache_dir is None else Path(cache_dir)
+    link, _, _ = reduce_cached(load_link_spec(spec), spec.parent, cache, rebuild, spec)
     return link
 
 

@@ -30,6 +30,7 @@ register("reduce", "reduce", "mesh, assemble and reduce one link; print its summ
 register("validate", "validate", "check a workflow YAML (file:line errors) without running it")
 register("run", "run", "run a workflow: analyses, plots, renders, exports into output/<name>/")
 register("study", "study", "mode-truncation and design studies of a workflow on Dask")
+register("cache", "cache", "list or clear the shared cache of reduced links")
 
 
 def build_parser() -> argparse.ArgumentParser:

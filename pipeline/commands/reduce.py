@@ -13,12 +13,14 @@ from pipeline.invariants.participation import DIRECTIONS
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("spec", type=Path, help="link spec YAML (see meshes/*.yaml)")
-    parser.add_argument("--out", type=Path, default=Path("output/links"),
-                        help="artifact folder (default: output/links)")
+    parser.add_argument("--links", "--out", dest="links", type=Path, default=None,
+                        help="the reduced-link cache (default: $FLEXMECH_LINKS, else "
+                             "output/links), shared with run, validate --build and study")
     parser.add_argument("--rebuild", action="store_true", help="ignore a cached artifact")
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
     parser.add_argument("--render", action="store_true",
-                        help="also render the first mode shapes to <out>/<name>_modes.png")
+                        help="also render the first mode shapes beside the artifact "
+                             "(<name>_modes.png)")
     parser.add_argument("--hdf5", type=Path, metavar="FILE",
                         help="also write the reduced link to FILE in the open HDF5 format "
                              "of docs/hdf5_format.md, for other tools")
@@ -30,9 +32,11 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from pipeline.core.errors import MeshError, ModalError, PipelineError
     from pipeline.invariants.adequacy import coverage_report
-    from pipeline.workflow.link_build import reduce_spec
+    from pipeline.invariants.cache import default_links_dir
+    from pipeline.workflow.link_build import reduce_cached
     from pipeline.workflow.link_spec import load_link_spec_lines, locate
 
+    args.links = args.links if args.links is not None else default_links_dir()
     spec, lines = load_link_spec_lines(args.spec)
     if args.convergence and spec.geometry.type == "mesh":
         from pipeline.core.errors import ConfigError
@@ -41,12 +45,13 @@ def run(args: argparse.Namespace) -> int:
                           f"file {spec.geometry.path}, which this tool does not coarsen: "
                           "compare its frequencies with a coarser mesh from the FE tool")
     try:
-        link, status = reduce_spec(spec, args.spec.parent, args.out, args.rebuild)
+        link, status, artifact = reduce_cached(spec, args.spec.parent, args.links, args.rebuild,
+                                               args.spec)
     except PipelineError as exc:  # name the spec's file, line and field
         default = ("geometry",) if isinstance(exc, MeshError) else \
             ("modes",) if isinstance(exc, ModalError) else ()
         raise type(exc)(locate(str(exc), spec, args.spec, lines, default)) from None
-    summary = {**link.summary(), "artifact": str(args.out / f"{link.name}.npz"),
+    summary = {**link.summary(), "artifact": str(artifact),
                "cache": status, "mesh_quality": dict(link.meta.get("mesh", {})),
                "effective_mass_fraction": _effective_masses(link),
                "static_coverage": coverage_report(link)}
@@ -59,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     if args.render:
         from pipeline.post.render import render_modes
 
-        summary["render"] = str(render_modes(link, args.out / f"{link.name}_modes.png"))
+        summary["render"] = str(render_modes(link, artifact.parent / f"{link.name}_modes.png"))
     if args.json:
         print(json.dumps(summary, indent=2))
     else:
@@ -115,17 +120,18 @@ def _print_table(s: dict) -> None:
 
 
 def _convergence(spec, args, link) -> dict:
-    """The link reduced again with its mesh size doubled (cached under
-    ``<out>/coarse``), and each frequency's estimated discretisation error."""
+    """The link reduced again with its mesh size doubled (in the link cache too), and each
+    frequency's estimated discretisation error."""
     from pipeline.invariants.adequacy import frequency_convergence, mesh_warnings
-    from pipeline.workflow.link_build import reduce_spec
+    from pipeline.workflow.link_build import reduce_cached
 
     g = spec.geometry
     key = "geometry.mesh_size" if g.type == "solid" else "geometry.element_size"
     size = g.mesh_size if g.type == "solid" else g.element_size
     field = key.split(".")[1]
     coarse_spec = spec.model_copy(update={"geometry": g.model_copy(update={field: 2 * size})})
-    coarse, _ = reduce_spec(coarse_spec, args.spec.parent, args.out / "coarse", args.rebuild)
+    coarse, _, _ = reduce_cached(coarse_spec, args.spec.parent, args.links, args.rebuild,
+                                 args.spec)
     rate = 2 if g.type == "solid" and g.order == 1 else 4
     rows = frequency_convergence(link.frequencies_hz, coarse.frequencies_hz, rate)
     return {"coarse_size_m": 2 * size, "rate": rate, "rows": rows,

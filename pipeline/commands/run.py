@@ -14,6 +14,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="coarse meshes and short runs (the file's quick: overrides)")
     parser.add_argument("--out", type=Path, default=Path("output"),
                         help="results go to OUT/<name>/ (default: output)")
+    parser.add_argument("--links", type=Path, default=None,
+                        help="the reduced-link cache (default: $FLEXMECH_LINKS, else "
+                             "output/links), shared with reduce, validate --build and study")
     parser.add_argument("--rebuild", action="store_true", help="ignore cached reduced links")
     parser.add_argument("--workers", type=int, default=0,
                         help="processes for analysis cases (default: one per core)")
@@ -23,13 +26,15 @@ def run(args: argparse.Namespace) -> int:
     import logging
     import os
 
+    from pipeline.invariants.cache import default_links_dir
     from pipeline.workflow import run_workflow
 
     # stage timings are logged at INFO: show them, so long runs show where they are
     logging.getLogger("pipeline.core.progress").setLevel(logging.INFO)
     workers = args.workers if args.workers > 0 else (os.cpu_count() or 1)
     res = run_workflow(args.workflow, out_root=args.out, sets=args.sets, quick=args.quick,
-                       rebuild=args.rebuild, workers=workers)
+                       rebuild=args.rebuild, workers=workers,
+                       cache_dir=args.links if args.links is not None else default_links_dir())
     man = res.manifest
     print(f"{res.workflow.name}: {man['status']} in {man['timings_s']['total']:.1f} s "
           f"-> {res.out_dir}")

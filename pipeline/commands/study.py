@@ -17,13 +17,16 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scheduler", default=None,
                         help="address of an existing Dask scheduler, e.g. tcp://host:8786")
     parser.add_argument("--links", type=Path, default=None,
-                        help="reduced-link cache shared with the workers (default <out>/links)")
+                        help="the reduced-link cache, shared with the workers and with "
+                             "reduce, validate --build and run (default: $FLEXMECH_LINKS, "
+                             "else output/links)")
     parser.add_argument("--worker-timeout", type=float, default=None, metavar="SECONDS",
                         help="end the cases left as 'lost' once the cluster has had no worker "
                              "for this long (default 120)")
 
 
 def run(args: argparse.Namespace) -> int:
+    from pipeline.invariants.cache import default_links_dir
     from pipeline.study.engine import WORKER_TIMEOUT, run_study
     from pipeline.study.spec import mode_text
 
@@ -31,7 +34,9 @@ def run(args: argparse.Namespace) -> int:
     if not timeout > 0:
         raise ConfigError(f"--worker-timeout: expected seconds > 0, got {args.worker_timeout}")
     res = run_study(args.study, out_root=args.out, workers=max(1, args.workers),
-                    scheduler=args.scheduler, cache_dir=args.links, worker_timeout=timeout)
+                    scheduler=args.scheduler,
+                    cache_dir=args.links if args.links is not None else default_links_dir(),
+                    worker_timeout=timeout)
     print(f"{res.folder.name}: {len(res.rows)} cases ({res.ran} run now, "
           f"{len(res.rows) - res.ran} from the table) -> {res.folder}")
     for r in res.rows:

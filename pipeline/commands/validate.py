@@ -13,6 +13,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true", help="apply the file's quick: overrides")
     parser.add_argument("--build", action="store_true",
                         help="also build the machine (reduces links; checks every name)")
+    parser.add_argument("--links", type=Path, default=None,
+                        help="the reduced-link cache (default: $FLEXMECH_LINKS, else "
+                             "output/links), shared with reduce, run and study")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -26,12 +29,14 @@ def run(args: argparse.Namespace) -> int:
     if args.build:
         import time
 
+        from pipeline.invariants.cache import default_links_dir
         from pipeline.workflow.run import build_cases, check_outputs
 
+        links = args.links if args.links is not None else default_links_dir()
         tic = time.perf_counter()
-        m = build_machine(wf)
+        m = build_machine(wf, links)
         check_outputs(wf, m)
-        build_cases(wf, m, "output/links")
+        build_cases(wf, m, links)
         print(f"built in {time.perf_counter() - tic:.1f} s: {m.mechanism.n} coordinates "
               f"({', '.join(m.mechanism.coordinates)})")
         for line in machine_report(m):

@@ -34,6 +34,7 @@ import numpy as np
 from pipeline.core.atomic import atomic_open, atomic_path, save_npz_atomic
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.core.progress import TaskBoard, stage
+from pipeline.invariants.cache import default_links_dir
 from pipeline.study.bundle import BundlePlugin
 from pipeline.study.cases import Case, study_cases
 from pipeline.study.spec import load_study, mode_text
@@ -175,7 +176,8 @@ def run_study(study: str | Path, *, out_root: str | Path = "output", workers: in
     ----------
     workers : processes of the local cluster (ignored with ``scheduler``).
     scheduler : address of an existing Dask scheduler (``tcp://host:8786``).
-    cache_dir : reduced-link cache of this process (default ``<out_root>/links``); the
+    cache_dir : reduced-link cache of this process (default: the shared one,
+        :func:`pipeline.invariants.cache.default_links_dir`); the
         workers get the links they need through Dask and need no shared filesystem.
     worker_timeout : seconds the study waits while the cluster has no worker at all
         before the cases left are ``lost`` (an external cluster whose workers died).
@@ -192,7 +194,7 @@ def run_study(study: str | Path, *, out_root: str | Path = "output", workers: in
     out_root = Path(out_root)
     name = run_name(spec.name, Path(study), f"{study}: name")
     folder = out_root / name
-    cache = Path(cache_dir) if cache_dir is not None else out_root / "links"
+    cache = Path(cache_dir) if cache_dir is not None else default_links_dir()
     check_run_folder(folder, cache)
     with output_lock(out_root, name):  # the lock a run of that name takes too
         check_folder_owner(folder, "study", f"{study}: name")
@@ -287,7 +289,7 @@ def _geometry_files(wf) -> list[Path]:
 
 def _artifact_folders(machines, cache: Path) -> list[str]:
     """The folders of the link cache holding the reduced links of ``machines``."""
-    from pipeline.workflow.link_build import artifact_folder
+    from pipeline.invariants.cache import artifact_folder
 
     out = set()
     for m in machines:

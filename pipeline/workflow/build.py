@@ -26,13 +26,7 @@ from pipeline.kinematics import Joint, build_mechanism, evaluate_tree, rigid_lin
 from pipeline.kinematics.drivers import driver_from_dict
 from pipeline.kinematics.initial import initial_positions, initial_velocities, reach
 from pipeline.kinematics.links import link_from_frames
-from pipeline.workflow.link_build import (
-    artifact_folder,
-    frame_axes,
-    input_hash,
-    link_request,
-    reduce_spec,
-)
+from pipeline.workflow.link_build import frame_axes, reduce_cached
 from pipeline.workflow.link_spec import LinkSpec
 from pipeline.workflow.load import Workflow
 from pipeline.workflow.model_checks import basis_warnings, held_mode_notes
@@ -201,13 +195,12 @@ def _reduce(wf: Workflow, name: str, entry, cache_dir: Path, rebuild: bool):
     if getattr(entry, "geometric_stiffening", False):
         spec = spec.model_copy(update={"modes": spec.modes.model_copy(
             update={"geometric_stiffening": True})})
-    request_files = link_request(spec, base)[1]
-    digest = input_hash(spec, request_files)
-    out = Path(cache_dir) / artifact_folder(spec.name, digest)
+    spec_file = None if isinstance(entry.spec, LinkSpec) else (wf.base_dir / entry.spec)
     try:
-        return reduce_spec(spec, base, out, rebuild)
+        link, status, _ = reduce_cached(spec, base, cache_dir, rebuild, spec_file)
     except PipelineError as exc:
         raise type(exc)(f"{wf.where('links', name, 'spec')}: {exc}") from exc
+    return link, status
 
 
 def build_links(wf: Workflow, cache_dir: Path, rebuild: bool = False):
@@ -467,15 +460,21 @@ def out_of_reach(wf: Workflow, mech, driven: dict[str, float]) -> None:
             "t = 0 or the geometry (joint frames, link lengths)")) from None
 
 
-def build_machine(wf: Workflow, cache_dir: str | Path = "output/links",
+def build_machine(wf: Workflow, cache_dir: str | Path | None = None,
                   rebuild: bool = False) -> Machine:
-    """Reduce the links (cached), build mechanism, bodies, drivers, forces; assemble at t = 0.
+    """Reduce the links (cached in ``cache_dir``, default the shared link cache of
+    :func:`pipeline.invariants.cache.default_links_dir`), build mechanism, bodies, drivers,
+    forces; assemble at t = 0.
 
     Raises
     ------
     ConfigError
         Any inconsistency, named by workflow file, line and YAML path.
     """
+    if cache_dir is None:
+        from pipeline.invariants.cache import default_links_dir
+
+        cache_dir = default_links_dir()
     links, bodies, parts = build_links(wf, Path(cache_dir), rebuild)
     joints = build_joints(wf, links, parts)
     try:

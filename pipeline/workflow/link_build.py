@@ -157,12 +157,6 @@ def input_hash(spec: LinkSpec, files: tuple[Path, ...]) -> str:
                          "reduction": REDUCTION_REVISION, "versions": versions()}, files)
 
 
-def artifact_folder(name: str, digest: str) -> str:
-    """The folder of the link cache holding the artifact of link spec ``name`` built from
-    inputs of hash ``digest`` (content-addressed: one folder per distinct input)."""
-    return f"{name}-{digest[:12]}"
-
-
 def versions() -> dict[str, str]:
     """Versions of the pipeline and of the libraries that shape its numbers."""
     out = {"pipeline": __version__}
@@ -181,6 +175,34 @@ def reduce_spec(spec: LinkSpec, base_dir: Path, out_dir: Path, rebuild: bool = F
     -------
     (ReducedLink, status) with status "hit", "miss", "corrupt" or "rebuilt".
     """
+    return _reduce_to(spec, base_dir, lambda digest: Path(out_dir) / f"{spec.name}.npz",
+                      rebuild)
+
+
+def reduce_cached(spec: LinkSpec, base_dir: Path, cache_dir: Path, rebuild: bool = False,
+                  spec_file: Path | None = None):
+    """Build (or reuse) the artifact of ``spec`` in the shared link cache ``cache_dir``
+    (``<cache_dir>/<name>-<hash>/<name>.npz``, :mod:`pipeline.invariants.cache`), as every
+    command does; ``spec_file`` is recorded for ``pipeline cache``.
+
+    Returns
+    -------
+    (ReducedLink, status, path of the artifact).
+    """
+    from pipeline.invariants.cache import artifact_path
+
+    where = {}
+
+    def path_of(digest):
+        where["path"] = artifact_path(cache_dir, spec.name, digest)
+        return where["path"]
+
+    extra = {"spec_file": str(Path(spec_file).resolve())} if spec_file is not None else {}
+    link, status = _reduce_to(spec, base_dir, path_of, rebuild, extra)
+    return link, status, where["path"]
+
+
+def _reduce_to(spec: LinkSpec, base_dir: Path, path_of, rebuild: bool, extra=None):
     from pipeline.core.progress import StageTimes
     from pipeline.invariants.cache import cached_reduced_link
     from pipeline.invariants.reduce import reduce_link
@@ -188,8 +210,8 @@ def reduce_spec(spec: LinkSpec, base_dir: Path, out_dir: Path, rebuild: bool = F
     request, files = link_request(spec, Path(base_dir))
     digest = input_hash(spec, files)
     meta = {"input_hash": digest, "versions": versions(),
-            "settings": spec.model_dump(mode="json")}
-    path = Path(out_dir) / f"{spec.name}.npz"
+            "settings": spec.model_dump(mode="json"), **(extra or {})}
+    path = path_of(digest)
     if rebuild and path.exists():
         path.unlink()
 

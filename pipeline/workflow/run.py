@@ -24,6 +24,7 @@ import numpy as np
 from pipeline.core.atomic import folder_lock, replace_dir
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.core.progress import TaskBoard, quiet, stage
+from pipeline.invariants.cache import default_links_dir
 from pipeline.workflow.analyses import AnalysisResult, run_analysis
 from pipeline.workflow.build import Machine, build_machine
 from pipeline.workflow.link_build import versions
@@ -252,7 +253,8 @@ def run_workflow(workflow: str | Path | Workflow, *, out_root: str | Path = "out
     workflow : YAML path or a loaded Workflow (then ``sets``/``quick`` are ignored).
     out_root : results go to ``out_root/<name>/``.
     sets : ``"path=value"`` overrides.  quick : apply the file's ``quick:`` overrides.
-    cache_dir : reduced-link cache (default ``out_root/links``).
+    cache_dir : reduced-link cache (default: the shared one,
+        :func:`pipeline.invariants.cache.default_links_dir`).
     rebuild : ignore cached reduced links.
     outputs : write plots, renders and exports (False: results only, for tests).
     workers : processes for the analysis cases (1 runs them in this process).
@@ -264,7 +266,7 @@ def run_workflow(workflow: str | Path | Workflow, *, out_root: str | Path = "out
     """
     wf = workflow if isinstance(workflow, Workflow) else load_workflow(workflow, sets, quick)
     out_root = Path(out_root)
-    cache_dir = Path(cache_dir) if cache_dir is not None else out_root / "links"
+    cache_dir = Path(cache_dir) if cache_dir is not None else default_links_dir()
     final = out_root / wf.name
     check_run_folder(final, cache_dir)
     tmp = out_root / f".{wf.name}.partial-{os.getpid()}"

@@ -61,18 +61,23 @@ def test_compiled_inertia_terms_equal_the_numpy_reference():
     moments, random states)."""
     from eom_models import flexible_four_bar
 
-    from pipeline.dynamics.equations import equation_terms
-
     for s in (flexible_double_pendulum(n_modes=3).system, flexible_four_bar(n_modes=2).system,
               flexible_double_pendulum(n_modes=3, second_order=True).system):
-        rng = np.random.default_rng(4)
-        for _ in range(3):
-            q, qd = rng.uniform(-1, 1, s.mechanism.n), rng.normal(size=s.mechanism.n)
-            fast = equation_terms(s, q, qd, 0.2)
-            ref = equation_terms(s, q, qd, 0.2, compiled=False)
-            for name in ("M", "h", "Q_gravity"):
-                a, b = getattr(fast, name), getattr(ref, name)
-                assert np.abs(a - b).max() <= 1e-13 * np.abs(b).max(), name
+        _compiled_equals_reference(s, np.random.default_rng(4), 3, 1.0)
+
+
+def _compiled_equals_reference(s, rng, states: int, spread: float) -> None:
+    """M, h and the gravity force, compiled against numpy, at random states (1e-13)."""
+    from pipeline.dynamics.equations import equation_terms
+
+    for _ in range(states):
+        q, qd = rng.uniform(-spread, spread, s.mechanism.n), rng.normal(size=s.mechanism.n)
+        fast = equation_terms(s, q, qd, 0.2)
+        ref = equation_terms(s, q, qd, 0.2, compiled=False)
+        for name in ("M", "h", "Q_gravity"):
+            a, b = getattr(fast, name), getattr(ref, name)
+            assert np.abs(a - b).max() <= 1e-13 * np.abs(b).max(), name
+        assert np.abs(fast.M - fast.M.T).max() <= 1e-15 * np.abs(fast.M).max()
 
 
 def _branched_tree():
@@ -107,15 +112,4 @@ def _branched_tree():
 def test_composite_sums_on_a_branched_tree_equal_the_link_by_link_sums():
     """The compiled kernel's subtree sums against the numpy link-by-link sums on a tree
     with branches at a flexible link's frames, multi-motion joints and a massless link."""
-    from pipeline.dynamics.equations import equation_terms
-
-    s = _branched_tree()
-    rng = np.random.default_rng(11)
-    for _ in range(4):
-        q, qd = rng.uniform(-0.8, 0.8, s.mechanism.n), rng.normal(size=s.mechanism.n)
-        fast = equation_terms(s, q, qd, 0.0)
-        ref = equation_terms(s, q, qd, 0.0, compiled=False)
-        for name in ("M", "h", "Q_gravity"):
-            a, b = getattr(fast, name), getattr(ref, name)
-            assert np.abs(a - b).max() <= 1e-13 * np.abs(b).max(), name
-        assert np.abs(fast.M - fast.M.T).max() <= 1e-15 * np.abs(fast.M).max()
+    _compiled_equals_reference(_branched_tree(), np.random.default_rng(11), 4, 0.8)
