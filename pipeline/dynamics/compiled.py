@@ -1,9 +1,8 @@
-"""Compiled mass matrix, velocity terms and gravity force (numba).
-
-The same sums as :mod:`mass_matrix`, :mod:`velocity_terms` and :mod:`gravity`
-(the reference implementation, kept for clarity and for the tests comparing
-the two), on flat arrays, arranged so that their cost grows with the square of the
-links of a chain, not its cube.
+"""The mass matrix, velocity terms, gravity force and potential, and each body's J(eta),
+N(eta): the one implementation (numba), on flat arrays, arranged so that its cost grows
+with the square of the links of a chain, not its cube. :mod:`mass_matrix`, :mod:`gravity`
+and :mod:`energy` are its public faces; the link-by-link numpy form of the same sums is the
+tests' oracle (``tests/dynamics/inertia_numpy.py``).
 
 Per link l with modal coordinates eta (m,) and rates eta':
 
@@ -43,7 +42,8 @@ from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consis
 from pipeline.kinematics.compiled import _kernel as _kinematics
 from pipeline.kinematics.compiled import _mm, coordinate_vector
 
-__all__ = ["CompiledMasses", "closed_state", "compile_masses", "inertia_terms", "reduced_solve"]
+__all__ = ["CompiledMasses", "closed_state", "compile_masses", "gravity_potential",
+           "inertia_terms", "link_terms", "reduced_solve", "second_order_acceleration"]
 
 
 @dataclass(frozen=True)
@@ -171,6 +171,84 @@ def _affine_inverse(A, out):
     out[3, 3] = 1.0
 
 
+@njit(cache=True, inline='always')
+def _body_terms(q, idx, m, C, Cp, Cpp, G, has_G, J, N):
+    """J(eta) (4, 4) and N_a(eta) (m, 4, 4) of one body into J, N (the module docstring):
+    its modal coordinates q[idx[:m]], invariants C, C'_a, C''_ab, second-order moments G."""
+    J[:] = C
+    for a in range(m):
+        N[a] = Cp[a]
+        ea = q[idx[a]]
+        J += ea * (Cp[a] + Cp[a].T)
+    for a in range(m):
+        for c in range(m):
+            N[a] += q[idx[c]] * Cpp[c, a]
+    for a in range(m):
+        J += q[idx[a]] * (N[a] - Cp[a])  # sum_ab eta_a eta_b C''_ba
+    # the second-order mass moments: J += S + S^T (S = sum eta_a eta_b G_ab / 2 in the
+    # first three columns), N_a[:, :3] += sum_b G_ab eta_b
+    for a in range(m if has_G else 0):
+        ea = q[idx[a]]
+        for c in range(m):
+            ec = q[idx[c]]
+            for j in range(4):
+                for k in range(3):
+                    v = G[a, c, j, k] * ec
+                    N[a, j, k] += v
+                    J[j, k] += 0.5 * ea * v
+                    J[k, j] += 0.5 * ea * v
+
+
+@njit(cache=True)
+def _one_body(eta, C, Cp, Cpp, G, has_G):
+    m = eta.shape[0]
+    J = np.zeros((4, 4))
+    N = np.zeros((m, 4, 4))
+    _body_terms(eta, np.arange(m), m, C, Cp, Cpp, G, has_G, J, N)
+    return J, N
+
+
+def link_terms(body, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """J(eta) (4, 4) and N_a = C'_a + sum_b eta_b C''_ba (+ the second-order part) (m, 4, 4)
+    of one body (a :class:`pipeline.dynamics.BodyMass`) at its modal coordinates eta (m,):
+    the same code the mass matrix, velocity terms and gravity sums run."""
+    m = body.n_modes
+    G = body.second_order_moments
+    has_G = bool(G.size)
+    if not has_G:
+        G = np.zeros((m, m, 4, 3))
+    return _one_body(np.ascontiguousarray(eta, dtype=float).reshape(m), body.C,
+                     np.ascontiguousarray(body.Cp).reshape(m, 4, 4),
+                     np.ascontiguousarray(body.Cpp).reshape(m, m, 4, 4), G, has_G)
+
+
+def second_order_acceleration(body, etad: np.ndarray) -> np.ndarray:
+    """(4, 3) S''|eta''=0 = sum_ab eta'_a eta'_b G_ab, int rho xb u2''^T dV at zero modal
+    acceleration (body axes); zeros without second-order moments."""
+    G = body.second_order_moments
+    return np.einsum("abjk,a,b->jk", G, etad, etad) if G.size else np.zeros((4, 3))
+
+
+@njit(cache=True)
+def gravity_potential(q, A, g, mass):
+    """V = -sum_b g . (A_b J_b(eta)[:, 3]) (J) over the massive bodies, zero at the ground
+    origin: q (n,), A (L, 4, 4) the link poses, g (4,) homogeneous gravity, ``mass`` the
+    :meth:`CompiledMasses.arrays`."""
+    link, n_modes, idx, C, Cp, Cpp, G, has_G = mass[:8]
+    V = 0.0
+    J = np.zeros((4, 4))
+    N = np.zeros((Cp.shape[1], 4, 4))
+    for b in range(link.shape[0]):
+        _body_terms(q, idx[b], n_modes[b], C[b], Cp[b], Cpp[b], G[b], has_G[b], J, N)
+        Al = A[link[b]]
+        for r in range(4):
+            s = 0.0
+            for k in range(4):
+                s += Al[r, k] * J[k, 3]
+            V -= g[r] * s
+    return V
+
+
 @njit(cache=True)
 def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G, has_G,
             parent, order, n_local, local):
@@ -204,29 +282,7 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G, 
     for b in range(link.shape[0]):
         li, m = link[b], n_modes[b]
         massive[li] = b
-        # J(eta) and N_a(eta)
-        J[:] = C[b]
-        for a in range(m):
-            N[a] = Cp[b, a]
-            ea = q[idx[b, a]]
-            J += ea * (Cp[b, a] + Cp[b, a].T)
-        for a in range(m):
-            for c in range(m):
-                N[a] += q[idx[b, c]] * Cpp[b, c, a]
-        for a in range(m):
-            J += q[idx[b, a]] * (N[a] - Cp[b, a])  # sum_ab eta_a eta_b C''_ba
-        # the second-order mass moments: J += S + S^T (S = sum eta_a eta_b G_ab / 2 in
-        # the first three columns), N_a[:, :3] += sum_b G_ab eta_b
-        for a in range(m if has_G[b] else 0):
-            ea = q[idx[b, a]]
-            for c in range(m):
-                ec = q[idx[b, c]]
-                for j in range(4):
-                    for k in range(3):
-                        v = G[b, a, c, j, k] * ec
-                        N[a, j, k] += v
-                        J[j, k] += 0.5 * ea * v
-                        J[k, j] += 0.5 * ea * v
+        _body_terms(q, idx[b], m, C[b], Cp[b], Cpp[b], G[b], has_G[b], J, N)
         Al = A[li]
         # this link's share of its composites: A J A^T and A J[:, 3]
         _mm(Al, J, T1)

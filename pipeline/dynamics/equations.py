@@ -25,16 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pipeline.dynamics.compiled import inertia_terms
 from pipeline.dynamics.forces.base import element_forces
-from pipeline.dynamics.gravity import gravity_force
-from pipeline.dynamics.mass_matrix import all_link_terms, mass_matrix
-from pipeline.dynamics.velocity_terms import velocity_terms
 from pipeline.kinematics.poses import TreeState, evaluate_tree
-
-try:  # the compiled sums (numba); mass_matrix, velocity_terms, gravity are the reference
-    from pipeline.dynamics.compiled import inertia_terms as _inertia_terms
-except ImportError:  # pragma: no cover - numba is a dependency
-    _inertia_terms = None
 
 __all__ = ["EquationTerms", "elastic_forces", "equation_terms", "equations", "state_rates"]
 
@@ -80,9 +73,8 @@ def _force_elements(system, tree, q, qd, t, z=None):
 
 
 def equation_terms(system, q: np.ndarray, qd: np.ndarray, t: float,
-                   tree: TreeState | None = None, compiled: bool = True,
-                   inertia: tuple | None = None, z: np.ndarray | None = None
-                   ) -> EquationTerms:
+                   tree: TreeState | None = None, inertia: tuple | None = None,
+                   z: np.ndarray | None = None) -> EquationTerms:
     """All terms of the equations of motion at (q, qd, t).
 
     Parameters
@@ -90,8 +82,6 @@ def equation_terms(system, q: np.ndarray, qd: np.ndarray, t: float,
     q, qd : (n,) coordinates and rates.
     t : time, s.
     tree : TreeState at (q, qd) with dA, Ad, Add (computed if None).
-    compiled : M, h and gravity by :mod:`pipeline.dynamics.compiled` (same values to
-        rounding); False uses the numpy reference implementation.
     inertia : (M, h, Q_gravity) at this state if the caller has them.
     z : (nz,) the force elements' own states (System.state_slices), for a system with
         such elements; without them those elements raise ConfigError.
@@ -99,16 +89,11 @@ def equation_terms(system, q: np.ndarray, qd: np.ndarray, t: float,
     q = np.asarray(q, dtype=float)
     qd = np.asarray(qd, dtype=float)
     if tree is None:
-        tree = evaluate_tree(system.mechanism, q, qd, derivatives=True, compiled=compiled)
+        tree = evaluate_tree(system.mechanism, q, qd, derivatives=True)
     if inertia is not None:
         M, h, Qg = inertia
-    elif compiled and _inertia_terms is not None:
-        M, h, Qg = _inertia_terms(system.compiled_masses, tree, q, qd, system.gravity4)
-    else:
-        links = all_link_terms(system, q)  # J(eta), N(eta) once for M, h and gravity
-        M = mass_matrix(system, tree, q, links)
-        h = velocity_terms(system, tree, q, qd, links)
-        Qg = gravity_force(system, tree, q, links)
+    else:  # M, h and gravity in one compiled pass (pipeline.dynamics.compiled)
+        M, h, Qg = inertia_terms(system.compiled_masses, tree, q, qd, system.gravity4)
     Qe, Qd = elastic_forces(system, q, qd)
     Qf, Qnc = _force_elements(system, tree, q, qd, t, z)
     return EquationTerms(M, h, Qg, Qe, Qd, Qf, Qd + Qnc, tree)

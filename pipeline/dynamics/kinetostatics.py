@@ -40,8 +40,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.core.errors import ConfigError
+from pipeline.dynamics.compiled import link_terms, second_order_acceleration
 from pipeline.dynamics.equations import equations
-from pipeline.dynamics.mass_matrix import link_terms, second_order_acceleration
 from pipeline.dynamics.statics import (
     reduced_coordinates,
     static_equilibrium,

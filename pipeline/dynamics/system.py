@@ -143,19 +143,6 @@ class System:
         return K, D
 
     @cached_property
-    def first_moment_data(self) -> tuple[np.ndarray, np.ndarray, tuple]:
-        """Link indices (B,), C[:, 3] (B, 4) of the massive links, and per flexible one
-        (position b, modal indices, C'_a[:, 3] + C'_a[3, :] (m, 4), C''_ab[:, 3] as (m, 4, m)
-        with the second-order first moment G_ab[3] / 2 added to its first three rows)
-        for :func:`pipeline.dynamics.gravity.first_moments`."""
-        links = self.mass_links
-        li = np.array([item[0] for item in links], dtype=int)
-        C3 = np.array([body.C[:, 3] for _, body, _ in links]).reshape(-1, 4)
-        flexible = tuple((b, idx, body.Cp[:, :, 3] + body.Cp[:, 3, :], _quadratic_moment(body))
-                         for b, (_, body, idx) in enumerate(links) if idx.size)
-        return li, C3, flexible
-
-    @cached_property
     def state_slices(self) -> tuple[tuple[Any, slice], ...]:
         """(element, its slice of the states z) of every force element with states of its
         own (pipeline.dynamics.forces.base, contract rule 7), in the order of ``forces``."""
@@ -215,12 +202,3 @@ class System:
         index = {name: mech.link_index(name) for name in self.bodies}
         return tuple((index[name], body, mech.modal_index[index[name]])
                      for name, body in self.bodies.items())
-
-
-def _quadratic_moment(body: BodyMass) -> np.ndarray:
-    """(m, 4, m) P2 with eta @ (P2 @ eta) the part of the first moment J(eta)[:, 3]
-    quadratic in eta: C''_ab[:, 3] and the second-order first moment G_ab[3] / 2."""
-    P2 = body.Cpp[:, :, :, 3].transpose(0, 2, 1).copy()
-    if body.second_order_moments.size:
-        P2[:, :3, :] += 0.5 * body.second_order_moments[:, :, 3, :].transpose(0, 2, 1)
-    return P2

@@ -22,6 +22,7 @@ from numba import njit
 
 from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
 from pipeline.dynamics.compiled import _kernel as _inertia
+from pipeline.dynamics.compiled import gravity_potential
 from pipeline.dynamics.forces.compiled import generalized_forces, potential, state_rates
 from pipeline.kinematics.compiled import _kernel as _kinematics
 from pipeline.solver.generalized_alpha import NEWTON_SHARE
@@ -444,34 +445,6 @@ def hermite(q0, v0, q1, v1, h, s):
 
 
 @njit(cache=True)
-def _gravity_potential(q, A, g, mass):
-    """V = -sum_b g . (first moment of body b in ground) (J(eta)[:, 3] per body), J."""
-    link, n_modes, idx, C, Cp, Cpp, G, has_G = mass[:8]
-    V = 0.0
-    col = np.empty(4)
-    for b in range(link.shape[0]):
-        for k in range(4):
-            col[k] = C[b, k, 3]
-        for a in range(n_modes[b]):
-            ea = q[idx[b, a]]
-            for k in range(4):
-                col[k] += ea * (Cp[b, a, k, 3] + Cp[b, a, 3, k])
-            for c in range(n_modes[b]):
-                ec = q[idx[b, c]]
-                for k in range(4):
-                    col[k] += ea * ec * Cpp[b, a, c, k, 3]
-                for k in range(3 if has_G[b] else 0):
-                    col[k] += 0.5 * ea * ec * G[b, a, c, 3, k]
-        Al = A[link[b]]
-        for r in range(4):
-            s = 0.0
-            for k in range(4):
-                s += Al[r, k] * col[k]
-            V -= g[r] * s
-    return V
-
-
-@njit(cache=True)
 def _sub(C, cols):
     out = np.empty((C.shape[0], cols.shape[0]))
     for i in range(C.shape[0]):
@@ -549,7 +522,7 @@ def output(q, v, z, qP, vP, aP, factor, U, P, rank_rtol, kin, mass, K, D, g, w, 
     FP = _residual_rows(M, rhs, C, qdd, lam, P)
     e = np.empty(4)
     e[0] = 0.5 * v @ (M @ v)
-    e[1] = _gravity_potential(q, A, g, mass)
+    e[1] = gravity_potential(q, A, g, mass)
     e[2] = 0.5 * q @ (K @ q)
     e[3] = potential(q, A, dA, frc)
     res = 0.0

@@ -37,8 +37,8 @@ def _profile(system, q0):
     total = sum(v[3] for k, v in st.stats.items() if k[2] == "reduced_state") or 1.0
     shares = {}
     for (file, _, func), v in st.stats.items():
-        if func in ("mass_matrix", "velocity_terms", "gravity_force", "evaluate_tree",
-                    "local_matrices", "all_link_terms", "elastic_forces", "solve"):
+        if func in ("inertia_terms", "equation_terms", "evaluate_tree",
+                    "closure", "elastic_forces", "solve"):
             shares[f"{Path(file).stem}.{func}"] = round(v[3] / total, 3)
     buf = io.StringIO()
     pstats.Stats(pr, stream=buf).sort_stats("tottime").print_stats(8)
