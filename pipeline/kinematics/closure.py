@@ -47,20 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.kinematics.mechanism import Mechanism
-from pipeline.kinematics.poses import (
-    Locals,
-    TreeState,
-    _compiled_evaluate,
-    evaluate_tree,
-    local_matrices,
-    local_rates,
-    place_d,
-    place_rates,
-    tree_with_rates,
-)
-
-_I = ([2, 0, 1], [1, 2, 0])  # vee(E) = (E[I] - E[I^T]) / 2
-_IT = ([1, 2, 0], [2, 0, 1])
+from pipeline.kinematics.poses import TreeState
 
 __all__ = ["ClosureValue", "closure", "closure_gamma", "closure_jacobian",
            "closure_rates", "closure_residual", "row_weights"]
@@ -76,14 +63,12 @@ class ClosureValue:
     J : (6 k, n) dr/dq, or None.
     gamma : (6 k,) right-hand side of J q'' = gamma, or None.
     tree : the link poses (and derivatives) used.
-    local : the steps' local matrices at q (and q' when gamma is set).
     """
 
     r: np.ndarray
     J: np.ndarray | None
     gamma: np.ndarray | None
     tree: TreeState
-    local: Locals | None = None
 
 
 def row_weights(mech: Mechanism) -> np.ndarray:
@@ -92,79 +77,22 @@ def row_weights(mech: Mechanism) -> np.ndarray:
 
 
 def closure(mech: Mechanism, q: np.ndarray, qd: np.ndarray | None = None,
-            jacobian: bool = True, compiled: bool = True) -> ClosureValue:
-    """Residual, Jacobian (if ``jacobian``) and gamma (if ``qd``) at q (n,).
+            jacobian: bool = True) -> ClosureValue:
+    """Residual, Jacobian (if ``jacobian``) and gamma (if ``qd``) at q (n,): one compiled
+    pass (:mod:`pipeline.kinematics.compiled`; the numpy form of the same rows is the tests'
+    oracle, ``tests/kinematics/poses_numpy.py``)."""
+    from pipeline.kinematics.compiled import evaluate
 
-    ``compiled``: use the compiled pass of :mod:`pipeline.kinematics.compiled` (same
-    values to rounding); False runs the numpy reference implementation.
-    """
-    q = np.asarray(q, dtype=float)
-    if compiled and _compiled_evaluate is not None:
-        ev = _compiled_evaluate(mech.compiled, q, qd)
-        tree = TreeState(ev.A, ev.dA, ev.Ad, ev.Add)
-        return ClosureValue(ev.r, ev.J if jacobian else None, ev.gamma, tree)
-    loc = local_matrices(mech, q, qd, jacobian)
-    tree = evaluate_tree(mech, q, qd, jacobian, loc)
-    K, n = len(mech.loop_steps), mech.n
-    if K == 0:
-        return ClosureValue(np.zeros(0), np.zeros((0, n)) if jacobian else None,
-                            None if qd is None else np.zeros(0), tree, loc)
-    slots = [k for pair in mech.table.loop_slot for k in pair]
-    J = g = None
-    if jacobian:
-        Zs = np.array([place_d(k, loc, mech, tree.Z) for k in slots]).reshape(K, 2, 1 + n, 4, 4)
-        P, dP = Zs[:, :, 0], Zs[:, :, 1:]
-    else:
-        P = np.array([tree.A[mech.table.steps[k].frm] @ loc.M[k] for k in slots]).reshape(
-            K, 2, 4, 4)
-    RL, RR = P[:, 0, :3, :3], P[:, 1, :3, :3]
-    RLt = RL.transpose(0, 2, 1)
-    r = np.empty((K, 6))
-    r[:, :3] = P[:, 0, :3, 3] - P[:, 1, :3, 3]
-    r[:, 3:] = _vee(RR @ RLt)
-    if jacobian:
-        J = np.empty((K, 6, n))
-        J[:, :3] = (dP[:, 0, :, :3, 3] - dP[:, 1, :, :3, 3]).transpose(0, 2, 1)
-        dE = dP[:, 1, :, :3, :3] @ RLt[:, None] + RR[:, None] @ dP[:, 0, :, :3, :3].transpose(
-            0, 1, 3, 2)
-        J[:, 3:] = _vee(dE).transpose(0, 2, 1)
-        J = J.reshape(6 * K, n)
-    if qd is not None:
-        g = _gamma(mech, loc, tree)
-    return ClosureValue(r.reshape(-1), J, g, tree, loc)
-
-
-def _gamma(mech: Mechanism, loc: Locals, tree: TreeState) -> np.ndarray:
-    """(6 k,) gamma from local matrices and a tree with rates."""
-    K = len(mech.loop_steps)
-    slots = [k for pair in mech.table.loop_slot for k in pair]
-    Ys = np.array([place_rates(k, loc, mech, tree.Y) for k in slots]).reshape(K, 2, 4, 12)
-    P, Pd, Pdd = Ys[..., :4], Ys[..., 4:8], Ys[..., 8:]
-    RLt = P[:, 0, :3, :3].transpose(0, 2, 1)
-    g = np.empty((K, 6))
-    g[:, :3] = Pdd[:, 1, :3, 3] - Pdd[:, 0, :3, 3]
-    E2 = Pdd[:, 1, :3, :3] @ RLt + 2.0 * Pd[:, 1, :3, :3] @ Pd[:, 0, :3, :3].transpose(
-        0, 2, 1) + P[:, 1, :3, :3] @ Pdd[:, 0, :3, :3].transpose(0, 2, 1)
-    g[:, 3:] = -_vee(E2)
-    return g.reshape(-1)
+    ev = evaluate(mech.compiled, np.asarray(q, dtype=float), qd)
+    tree = TreeState(ev.A, ev.dA, ev.Ad, ev.Add)
+    return ClosureValue(ev.r, ev.J if jacobian else None, ev.gamma, tree)
 
 
 def closure_rates(mech: Mechanism, c: ClosureValue, q: np.ndarray,
                   qd: np.ndarray) -> ClosureValue:
     """``c`` (evaluated at q with the Jacobian, no rates) completed with gamma and the tree's
-    A', A'' at the rates qd (n,): the numpy path does not evaluate the positions again
-    (the compiled pass, which holds no local matrices, evaluates everything at once)."""
-    if c.local is None:
-        return closure(mech, q, qd)
-    loc = local_rates(mech, q, np.asarray(qd, dtype=float), c.local)
-    tree = tree_with_rates(mech, c.tree, loc)
-    g = _gamma(mech, loc, tree) if mech.loop_steps else np.zeros(0)
-    return ClosureValue(c.r, c.J, g, tree, loc)
-
-
-def _vee(E: np.ndarray) -> np.ndarray:
-    """(..., 3) axial vector of the skew part of E (..., 3, 3)."""
-    return 0.5 * (E[..., _I[0], _I[1]] - E[..., _IT[0], _IT[1]])
+    A', A'' at the rates qd (n,) (the compiled pass evaluates everything at once)."""
+    return closure(mech, q, np.asarray(qd, dtype=float), jacobian=c.J is not None)
 
 
 def closure_residual(mech: Mechanism, q: np.ndarray) -> np.ndarray:

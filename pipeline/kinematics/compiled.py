@@ -1,11 +1,10 @@
-"""Compiled evaluation of the link poses and the loop closure (numba).
-
-The same mathematics as :mod:`poses` and :mod:`closure` (the reference
-implementation, kept for clarity and for the tests that compare the two), run
-as one machine-code pass over flat arrays. Why: a reduced state of a closed-loop
-machine needs the poses, their derivatives in every coordinate, their rates
-and the closure rows several times per time step; in numpy those are hundreds
-of calls on 4x4 arrays whose per-call overhead dominates (front-end loader,
+"""Compiled evaluation of the link poses and the loop closure (numba): the one evaluation
+of the whole tree and its loops (:func:`pipeline.kinematics.poses.evaluate_tree` and
+:func:`pipeline.kinematics.closure.closure` call it; their numpy form is the tests' oracle,
+``tests/kinematics/poses_numpy.py``), one machine-code pass over flat arrays. Why: a
+reduced state of a closed-loop machine needs the poses, their derivatives in every
+coordinate, their rates and the closure rows several times per time step; in numpy those
+are hundreds of calls on 4x4 arrays whose per-call overhead dominates (front-end loader,
 15 coordinates: ~1 ms per pass in numpy, ~20 us compiled).
 
 Every step is written in one general form,

@@ -38,13 +38,7 @@ import numpy as np
 
 from pipeline.kinematics.mechanism import Mechanism, Step
 
-try:  # the compiled pass (numba); this module's numpy code is the reference and the fallback
-    from pipeline.kinematics.compiled import evaluate as _compiled_evaluate
-except ImportError:  # pragma: no cover - numba is a dependency
-    _compiled_evaluate = None
-
-__all__ = ["Locals", "StepValue", "TreeState", "evaluate_tree", "local_matrices", "local_rates",
-           "place_d", "place_rates", "step_local", "step_pose", "step_value", "tree_with_rates"]
+__all__ = ["StepValue", "TreeState", "evaluate_tree", "step_local", "step_pose", "step_value"]
 
 _I4 = np.eye(4)
 _Z4 = np.zeros((4, 4))
@@ -63,16 +57,12 @@ class TreeState:
     dA : (L, n, 4, 4) dA_l/dq_i, or None.
     Ad : (L, 4, 4) dA_l/dt, or None (no qd given).
     Add : (L, 4, 4) d2A_l/dt2 at q'' = 0, or None.
-    Z : (L, 1 + n, 4, 4) stacked [A, dA] (views share it), or None.
-    Y : (L, 4, 12) stacked [A | A' | A''], or None.
     """
 
     A: np.ndarray
     dA: np.ndarray | None
     Ad: np.ndarray | None
     Add: np.ndarray | None
-    Z: np.ndarray | None = None
-    Y: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -166,144 +156,20 @@ def step_pose(step: Step, A: np.ndarray, q: np.ndarray) -> np.ndarray:
     return A[step.frm] @ step_local(step, q, None, need_d=False)[0]
 
 
-@dataclass(frozen=True)
-class Locals:
-    """Local matrices of every step of ``mech.table`` at one configuration.
-
-    M, D1 : (S, 4, 4) M and dM/dx of one-motion steps (0 otherwise);
-    general : {step index: dM (k, 4, 4)} of the other steps;
-    MB : (S, 12, 12) block matrix [[M, M', M''], [0, M, 2 M'], [0, 0, M]] with
-        M'' at q'' = 0 (None without rates), so that [A | A' | A''] MB gives
-        [A M | (A M)' | (A M)''] in one product.
-    """
-
-    M: np.ndarray
-    D1: np.ndarray
-    general: dict
-    MB: np.ndarray | None
-
-
-def local_matrices(mech: Mechanism, q: np.ndarray, qd: np.ndarray | None = None,
-                   need_d: bool = True) -> Locals:
-    """Evaluate every step's local matrix at once (rigid one-motion steps vectorised);
-    with rates qd (n,) also M', M'' (see :func:`local_rates`)."""
-    tab = mech.table
-    S = len(tab.steps)
-    M, D1 = np.empty((S, 4, 4)), np.zeros((S, 4, 4))
-    if tab.iR.size:
-        x = q[tab.qR][:, None, None]
-        c, s = np.cos(x), np.sin(x)
-        M[tab.iR] = tab.R0 + s * tab.R1 + (1.0 - c) * tab.R2
-        D1[tab.iR] = c * tab.R1 + s * tab.R2
-    if tab.iT.size:
-        M[tab.iT] = tab.T0 + q[tab.qT][:, None, None] * tab.T1
-        D1[tab.iT] = tab.T1
-    if tab.iF.size:
-        M[tab.iF] = tab.F0
-    general = {}
-    for k in tab.iG:
-        M[k], general[k], _, _ = step_local(tab.steps[k], q, None, need_d)
-    loc = Locals(M, D1, general, None)
-    return loc if qd is None else local_rates(mech, q, qd, loc)
-
-
-def local_rates(mech: Mechanism, q: np.ndarray, qd: np.ndarray, loc: Locals) -> Locals:
-    """``loc`` (evaluated at q without rates) completed with the rate block MB at qd (n,).
-
-    Lets a caller close the loops first and add the rates once q' is known,
-    without evaluating the positions twice.
-    """
-    tab = mech.table
-    M = loc.M
-    Md, Mdd = np.zeros_like(M), np.zeros_like(M)
-    if tab.iR.size:
-        x = q[tab.qR][:, None, None]
-        c, s = np.cos(x), np.sin(x)
-        w = qd[tab.qR][:, None, None]
-        Md[tab.iR] = w * loc.D1[tab.iR]
-        Mdd[tab.iR] = (w * w) * (c * tab.R2 - s * tab.R1)
-    if tab.iT.size:
-        Md[tab.iT] = qd[tab.qT][:, None, None] * tab.T1
-    for k in tab.iG:
-        _, _, Md[k], Mdd[k] = step_local(tab.steps[k], q, qd, need_d=False)
-    MB = np.zeros((M.shape[0], 12, 12))
-    for b in range(3):
-        MB[:, 4 * b:4 * b + 4, 4 * b:4 * b + 4] = M
-    MB[:, 0:4, 4:8] = Md
-    MB[:, 4:8, 8:12] = 2.0 * Md
-    MB[:, 0:4, 8:12] = Mdd
-    return Locals(M, loc.D1, loc.general, MB)
-
-
-def place_d(k: int, loc: Locals, mech: Mechanism, Z: np.ndarray) -> np.ndarray:
-    """(1 + n, 4, 4) [P, dP/dq] of step k from the stacked [A, dA/dq] (L, 1 + n, 4, 4)."""
-    st = mech.table.steps[k]
-    Zf = Z[st.frm]
-    out = Zf @ loc.M[k]
-    if st.fast is not None:
-        if st.fast[4] >= 0:
-            out[1 + st.fast[4]] += Zf[0] @ loc.D1[k]
-    elif len(st.local):
-        out[1 + st.local] += Zf[0] @ loc.general[k]
-    return out
-
-
-def place_rates(k: int, loc: Locals, mech: Mechanism, Y: np.ndarray) -> np.ndarray:
-    """(4, 12) [P | P' | P''(q''=0)] of step k from [A | A' | A''] (L, 4, 12)."""
-    return Y[mech.table.steps[k].frm] @ loc.MB[k]
-
-
 def evaluate_tree(mech: Mechanism, q: np.ndarray, qd: np.ndarray | None = None,
-                  derivatives: bool = True, loc: Locals | None = None,
-                  compiled: bool = True) -> TreeState:
+                  derivatives: bool = True) -> TreeState:
     """Poses of every link at q (n,); with ``derivatives`` also dA/dq; with qd also A', A''.
+
+    One compiled pass (:mod:`pipeline.kinematics.compiled`); the numpy form of the same
+    recursion is the tests' oracle (``tests/kinematics/poses_numpy.py``).
 
     Parameters
     ----------
     q : (n,) coordinates (rad, m, modal).
     qd : (n,) coordinate rates, optional.
-    derivatives : compute dA/dq (L, n, 4, 4).
-    loc : local matrices already evaluated at (q, qd) (see :func:`local_matrices`).
-    compiled : without ``loc``, use the compiled pass (:mod:`pipeline.kinematics.compiled`);
-        False runs this module's numpy reference implementation.
+    derivatives : return dA/dq (L, n, 4, 4) too.
     """
-    if compiled and loc is None and _compiled_evaluate is not None:
-        ev = _compiled_evaluate(mech.compiled, np.asarray(q, dtype=float), qd)
-        return TreeState(ev.A, ev.dA if derivatives else None, ev.Ad, ev.Add)
-    L, n = len(mech.links), mech.n
-    if loc is None:
-        loc = local_matrices(mech, q, qd, derivatives)
-    order, slots = mech.placement, mech.table.tree_slot
-    A = dA = Ad = Add = Z = Y = None
-    if derivatives:
-        Z = np.zeros((L, 1 + n, 4, 4))
-        Z[order[0], 0] = _I4
-        for li in order[1:]:
-            Z[li] = place_d(slots[li], loc, mech, Z)
-        A, dA = Z[:, 0], Z[:, 1:]
-    if qd is not None:
-        Y = _tree_rates(mech, loc)
-        A, Ad, Add = Y[:, :, :4], Y[:, :, 4:8], Y[:, :, 8:]
-    if A is None:
-        A = np.empty((L, 4, 4))
-        A[order[0]] = _I4
-        for li in order[1:]:
-            k = slots[li]
-            A[li] = A[mech.table.steps[k].frm] @ loc.M[k]
-    return TreeState(A, dA, Ad, Add, Z, Y)
+    from pipeline.kinematics.compiled import evaluate
 
-
-def _tree_rates(mech: Mechanism, loc: Locals) -> np.ndarray:
-    """(L, 4, 12) [A | A' | A''(q''=0)] of every link from local matrices with rates."""
-    order, slots = mech.placement, mech.table.tree_slot
-    Y = np.zeros((len(mech.links), 4, 12))
-    Y[order[0], :, :4] = _I4
-    for li in order[1:]:
-        Y[li] = place_rates(slots[li], loc, mech, Y)
-    return Y
-
-
-def tree_with_rates(mech: Mechanism, tree: TreeState, loc: Locals) -> TreeState:
-    """``tree`` (with dA, no rates) completed with A', A'' from ``loc`` (:func:`local_rates`)."""
-    Y = _tree_rates(mech, loc)
-    return TreeState(tree.A, tree.dA, Y[:, :, 4:8], Y[:, :, 8:], tree.Z, Y)
+    ev = evaluate(mech.compiled, np.asarray(q, dtype=float), qd)
+    return TreeState(ev.A, ev.dA if derivatives else None, ev.Ad, ev.Add)

@@ -35,15 +35,10 @@ class Panel:
 def plot_panels(path: str | Path, panels, *, suptitle: str | None = None,
                 ncols: int = 1) -> Path:
     """PNG with one axes per panel (legend when a panel has more than one curve)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     n = len(panels)
     nrows = int(np.ceil(n / ncols))
-    fig, axes = plt.subplots(nrows, ncols, figsize=(7.5 * ncols, 3.4 * nrows + 0.6),
-                             dpi=110, squeeze=False)
+    fig = new_figure((7.5 * ncols, 3.4 * nrows + 0.6))
+    axes = fig.subplots(nrows, ncols, squeeze=False)
     for ax, p in zip(axes.ravel(), panels):
         if p.curves and all(len(c.y) == 1 for c in p.curves):
             _bars(ax, p)  # one value per case (statics): a bar chart, not dots over "time"
@@ -82,15 +77,21 @@ def _bars(ax, p: Panel) -> None:
     ax.grid(True, axis="y", alpha=0.3)
 
 
-def save_figure(fig, path: str | Path) -> Path:
-    """Lay out, write as PNG atomically and close a matplotlib figure; returns the path."""
-    import matplotlib.pyplot as plt
+def new_figure(size: tuple[float, float], dpi: int = 110):
+    """A matplotlib Figure of ``size`` (inches) outside pyplot: drawing it changes no
+    process-wide state (no backend switch, no figure left open in pyplot's list, so a
+    notebook's inline figures and a GUI session are left as they were)."""
+    from matplotlib.figure import Figure
 
+    return Figure(figsize=size, dpi=dpi)
+
+
+def save_figure(fig, path: str | Path) -> Path:
+    """Lay out and write a matplotlib figure as PNG atomically; returns the path."""
     fig.tight_layout()
     path = Path(path)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png")
-    plt.close(fig)
     return path
 
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.post.plots import save_figure
+from pipeline.post.plots import new_figure, save_figure
 
 
 def plot_convergence(path: str | Path, labels, relative: dict, *, reference: str,
@@ -18,13 +18,9 @@ def plot_convergence(path: str | Path, labels, relative: dict, *, reference: str
     ----------
     labels : (k,) case labels.  relative : series -> (k,) relative RMS difference (-).
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     keep = [i for i, lab in enumerate(labels) if lab != reference]
-    fig, ax = plt.subplots(figsize=(7.5, 4.5), dpi=110)
+    fig = new_figure((7.5, 4.5))
+    ax = fig.subplots()
     width = 0.8 / max(len(relative), 1)
     x = np.arange(len(keep))
     drawn = 0
@@ -54,11 +50,6 @@ def plot_outputs(path: str | Path, rows: list[dict], output: str, parameter: str
     parameter (``set:<path>``, numeric), one point per case."""
     import json
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     pts = []
     for r in rows:
         try:
@@ -69,7 +60,8 @@ def plot_outputs(path: str | Path, rows: list[dict], output: str, parameter: str
         if isinstance(y, float) and np.isfinite(y):
             pts.append((x, y))
     pts.sort()
-    fig, ax = plt.subplots(figsize=(6.5, 4.0), dpi=110)
+    fig = new_figure((6.5, 4.0))
+    ax = fig.subplots()
     if pts:
         ax.plot(*zip(*pts, strict=True), "o-")
     ax.set_xlabel(parameter)

@@ -133,23 +133,27 @@ def test_marker_pose_derivatives_equal_fd(mech):
 
 @pytest.mark.parametrize("seed", [3, 4, 5])
 def test_compiled_pass_equals_the_numpy_reference(mech, seed):
-    """The numba pass (pipeline.kinematics.compiled) against this module's reference
-    implementation: every joint type, flexible frames on both sides of the loops."""
+    """The compiled pass (pipeline.kinematics.compiled), the package's one evaluation of the
+    poses and closure rows, against the numpy oracle (tests/kinematics/poses_numpy.py):
+    every joint type, flexible frames on both sides of the loops."""
+    import poses_numpy as numpy_ref
+
     q, qd = _state(mech, seed)
-    fast, ref = closure(mech, q, qd), closure(mech, q, qd, compiled=False)
+    fast, ref = closure(mech, q, qd), numpy_ref.closure(mech, q, qd)
     for a, b in ((fast.r, ref.r), (fast.J, ref.J), (fast.gamma, ref.gamma),
                  (fast.tree.A, ref.tree.A), (fast.tree.dA, ref.tree.dA),
                  (fast.tree.Ad, ref.tree.Ad), (fast.tree.Add, ref.tree.Add)):
         assert a.shape == b.shape and _rel(a, b) < 1e-13
     st = evaluate_tree(mech, q, None, derivatives=False)
     assert st.dA is None and st.Ad is None
-    assert _rel(st.A, evaluate_tree(mech, q, compiled=False).A) < 1e-14
+    assert _rel(st.A, numpy_ref.evaluate_tree(mech, q, derivatives=False).A) < 1e-14
     # the positions-only pass agrees with the full one
     assert _rel(closure(mech, q).J, ref.J) < 1e-13
     # rates added to a positions-only evaluation (numpy: from its local matrices) equal
     # the full evaluation with rates
-    for c0 in (closure(mech, q, compiled=False), closure(mech, q)):
-        added = closure_rates(mech, c0, q, qd)
+    for c0, rates in ((numpy_ref.closure(mech, q), numpy_ref.closure_rates),
+                      (closure(mech, q), closure_rates)):
+        added = rates(mech, c0, q, qd)
         for a, b in ((added.gamma, ref.gamma), (added.tree.Ad, ref.tree.Ad),
                      (added.tree.Add, ref.tree.Add), (added.J, ref.J)):
             assert _rel(a, b) < 1e-13
