@@ -325,19 +325,39 @@ def _furniture(plotter, pv, bounds, camera, style) -> list[np.ndarray]:
     return drawn
 
 
-def _camera(plotter, camera):
-    """Named view, or a view direction (3,) (from the scene towards the camera; z up).
-    2-D views are parallel projections (lengths read the same everywhere)."""
+def view_setting(camera, up=None) -> tuple[np.ndarray, np.ndarray] | None:
+    """(view direction (3,), view-up (3,)) of a 3-D camera: ``iso`` looks down on the
+    machine from 35.26 deg above its horizontal, along the diagonal of the ground axes, with
+    ``up`` (against gravity; default z) upright on the screen, so a machine whose vertical
+    is y stands as one whose vertical is z does; a direction (3,) keeps ``up`` upright
+    unless it looks along it. None for the 2-D views (xy, xz, yz)."""
     check_camera(camera)
-    if not isinstance(camera, str):
-        v = view_direction(camera)
-        up = (0.0, 0.0, 1.0) if abs(v[2]) < 0.9 else (0.0, 1.0, 0.0)
-        plotter.view_vector(v, viewup=up)
+    if isinstance(camera, str) and camera != "iso":
+        return None
+    u = np.array((0.0, 0.0, 1.0) if up is None else up, dtype=float)
+    u /= np.linalg.norm(u)
+    if isinstance(camera, str):  # iso
+        h = np.ones(3) - np.ones(3) @ u * u
+        if np.linalg.norm(h) < 1e-9:  # up along the diagonal itself
+            h = np.array([1.0, -1.0, 0.0])
+        v = np.sqrt(2.0 / 3.0) * h / np.linalg.norm(h) + np.sqrt(1.0 / 3.0) * u
+        return v, u
+    v = view_direction(camera)
+    if abs(v @ u) >= 0.9:  # looking along up: the screen's up is a horizontal axis
+        u = np.eye(3)[int(np.argmin(np.abs(np.eye(3) @ v)))]
+    return v, u
+
+
+def _camera(plotter, camera, up=None):
+    """Named view, or a view direction (3,) (from the scene towards the camera), with ``up``
+    (against gravity) upright in the 3-D views (:func:`view_setting`). 2-D views are
+    parallel projections (lengths read the same everywhere)."""
+    setting = view_setting(camera, up)
+    if setting is not None:
+        plotter.view_vector(setting[0], viewup=setting[1])
         return
-    {"xy": plotter.view_xy, "xz": plotter.view_xz, "yz": plotter.view_yz,
-     "iso": plotter.view_isometric}[camera]()
-    if camera != "iso":
-        plotter.enable_parallel_projection()
+    {"xy": plotter.view_xy, "xz": plotter.view_xz, "yz": plotter.view_yz}[camera]()
+    plotter.enable_parallel_projection()
 
 
 def _frame(plotter, bounds, extra):
@@ -469,7 +489,7 @@ def render_positions(path, mech, shapes, Q, labels=None, *, scale: float = 1.0,
         _bar(plotter, scale, clim, style.color)
         if title:
             plotter.add_text(title, font_size=11, color="black")
-        _camera(plotter, camera)
+        _camera(plotter, camera, style.up)
         _frame(plotter, bounds, extra)
         boxes = ()
         if labels:
@@ -509,7 +529,7 @@ def animate_machine(path, mech, shapes, t, Q, *, scale: float = 1.0, fps: int = 
         _bar(plotter, scale, clim, style.color)
         clock = _text_actor(plotter.renderer, "t = 0 s", style.font_px, box=False)
         clock.SetPosition(10, window_size[1] - 2.2 * style.font_px)
-        _camera(plotter, camera)
+        _camera(plotter, camera, style.up)
         _frame(plotter, bounds, extra)
         for k in picks:
             poses = link_poses(mech, Q[k])

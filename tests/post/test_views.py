@@ -27,3 +27,31 @@ def test_a_huge_direction_is_a_direction_and_warns_nothing():
 def test_what_is_no_direction_is_refused(camera):
     with pytest.raises(ConfigError, match="expected a named view"):
         check_camera(camera)
+
+
+@pytest.mark.render
+@pytest.mark.parametrize("up", [(0, 0, 1), (0, 1, 0), (0, -1, 0), (1, 0, 0),
+                                (0.3, 0.9, 0.1)])
+@pytest.mark.parametrize("camera", ["iso", [2.0, 1.0, 0.5]])
+def test_the_vertical_stands_upright_on_the_screen(up, camera):
+    """Issue 29: iso views of y-up machines were drawn on their side (pyvista's isometric
+    view keeps z up). With ``up`` against gravity, the world's up is the screen's up (no
+    sideways component in camera axes, pointing up), and iso looks down on the machine."""
+    pv = pytest.importorskip("pyvista")
+    from pipeline.post.scene import _camera, view_setting
+
+    u = np.asarray(up, dtype=float) / np.linalg.norm(up)
+    plotter = pv.Plotter(off_screen=True, window_size=(200, 150))
+    try:
+        plotter.add_mesh(pv.Sphere())
+        _camera(plotter, camera, tuple(u))
+        view = plotter.camera.GetViewTransformMatrix()
+        R = np.array([[view.GetElement(i, j) for j in range(3)] for i in range(3)])
+    finally:
+        plotter.close()
+    on_screen = R @ u  # camera axes: x right, y up, z towards the viewer
+    v, _ = view_setting(camera, tuple(u))
+    if abs(v @ u) < 0.9:
+        assert abs(on_screen[0]) < 1e-9 and on_screen[1] > 0.4
+    if camera == "iso":
+        assert v @ u == pytest.approx(np.sqrt(1 / 3))  # 35.26 deg above the horizontal
