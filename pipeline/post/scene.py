@@ -22,16 +22,29 @@ def link_poses(mech, q) -> np.ndarray:
     return evaluate_tree(mech, np.asarray(q, dtype=float), derivatives=False).A
 
 
+def drawn_configuration(mech, q, scale: float) -> np.ndarray:
+    """q (n,) with every modal coordinate multiplied by ``scale``: the configuration whose
+    link poses draw a deformation exaggerated ``scale`` times along the whole chain, so
+    that a link hanging on a flexible one stays on its (magnified) tip."""
+    q = np.array(coordinate_vector(q, mech.n), dtype=float)
+    q[mech.modal_coordinates] *= scale
+    return q
+
+
 def posed_points(mech, shape, q, scale: float = 1.0, poses=None) -> tuple[np.ndarray, np.ndarray]:
     """((N, 3) ground points, (N,) elastic displacement magnitude, m) of a link at q.
 
-    The rigid motion is exact; only the elastic part sum_a u_a eta_a is multiplied by
-    ``scale``. The magnitude is the true (unscaled) elastic displacement. ``poses``:
-    :func:`link_poses` at q, when several links are drawn at the same q.
+    The elastic deformation is drawn ``scale`` times: the link is placed by the poses of
+    :func:`drawn_configuration` (every modal coordinate times ``scale``, so the joints of a
+    chain stay together) and its own field sum_a u_a eta_a is multiplied by ``scale``;
+    ``scale`` 1 is the true configuration. The magnitude is the true (unscaled) elastic
+    displacement. ``poses``: :func:`link_poses` at :func:`drawn_configuration`, when
+    several links are drawn at the same q.
     """
     q = coordinate_vector(q, mech.n)
     li = mech.link_index(shape.link)
-    A = (link_poses(mech, q) if poses is None else poses)[li]
+    A = (link_poses(mech, drawn_configuration(mech, q, scale)) if poses is None
+         else poses)[li]
     return _placed(shape.points, shape.modes, A, q[mech.modal_index[li]], scale)
 
 
@@ -122,7 +135,6 @@ class _Drawn:
                  ghost=False):
         self.mech, self.scale, self.ghost, self.color = mech, scale, ghost, style.color
         self.meshes = []
-        poses = link_poses(mech, q)
         lw = style.line_px
         for shape in shapes.values():
             flexible = shape.modes is not None and shape.modes.shape[0] > 0
@@ -150,12 +162,15 @@ class _Drawn:
                 else:
                     plotter.add_mesh(mesh, color="silver" if not is_line else "grey",
                                      opacity=opacity, **kw)
-        self.update(q, poses)
+        self.update(q)
 
     def update(self, q, poses=None):
+        """Move the actors to q; ``poses``: :func:`link_poses` at
+        ``drawn_configuration(mech, q, scale)`` (computed if None)."""
         q = np.asarray(q, dtype=float)
-        poses = link_poses(self.mech, q) if poses is None else poses
         scale = 0.0 if self.ghost else self.scale
+        if poses is None:
+            poses = link_poses(self.mech, drawn_configuration(self.mech, q, scale))
         for shape, X, fields, mesh in self.meshes:
             li = self.mech.link_index(shape.link)
             eta = q[self.mech.modal_index[li]]
@@ -168,10 +183,11 @@ class _Drawn:
 class _Pivots:
     """Joints as dots; joints to ground larger and dark red."""
 
-    def __init__(self, plotter, pv, mech, q, style, shapes=None):
-        """The joints of the links drawn (``shapes``: their LinkShapes; None: every joint)."""
-        self.mech = mech
-        P, grounded = joint_points(mech, q)
+    def __init__(self, plotter, pv, mech, q, style, shapes=None, scale: float = 1.0):
+        """The joints of the links drawn (``shapes``: their LinkShapes; None: every joint),
+        where the links are drawn with their deformation times ``scale``."""
+        self.mech, self.scale = mech, scale
+        P, grounded = joint_points(mech, drawn_configuration(mech, q, scale))
         self.shown = drawn_joints(mech, shapes)
         P, grounded = P[self.shown], grounded[self.shown]
         self.grounded = grounded
@@ -185,7 +201,9 @@ class _Pivots:
                              render_points_as_spheres=True)
 
     def update(self, q, poses=None):
-        P = joint_points(self.mech, q, poses)[0][self.shown]
+        """``poses``: at ``drawn_configuration(mech, q, scale)``, as :meth:`_Drawn.update`."""
+        P = joint_points(self.mech, drawn_configuration(self.mech, q, self.scale),
+                         poses)[0][self.shown]
         if self.free is not None:
             self.free.points = P[~self.grounded]
         if self.fixed is not None:
@@ -258,10 +276,12 @@ def scene_bounds(mech, shapes, Q, scale) -> np.ndarray:
 
 
 def _drawn_points(mech, shapes, q, scale, joints: bool = False) -> list[np.ndarray]:
-    """Ground points (m) of every link (and the joints) at q, the poses computed once."""
-    poses = link_poses(mech, q)
+    """Ground points (m) of every link (and the joints) at q as drawn, the poses computed
+    once."""
+    qs = drawn_configuration(mech, q, scale)
+    poses = link_poses(mech, qs)
     out = [posed_points(mech, s, q, scale, poses)[0] for s in shapes.values()]
-    return out + [joint_points(mech, q, poses)[0]] if joints else out
+    return out + [joint_points(mech, qs, poses)[0]] if joints else out
 
 
 def nice_length(x: float) -> float:
@@ -483,7 +503,7 @@ def render_positions(path, mech, shapes, Q, labels=None, *, scale: float = 1.0,
         for m, shp, q in scene:
             _Drawn(plotter, pv, m, shp, q, scale, clim, style,
                    opacity=1.0 if len(scene) == 1 else 0.9)
-            _Pivots(plotter, pv, m, q, style, shp)
+            _Pivots(plotter, pv, m, q, style, shp, scale)
         bounds = scene_bounds(mech, shapes, Q, scale)
         extra = _furniture(plotter, pv, bounds, camera, style)
         _bar(plotter, scale, clim, style.color)
@@ -524,7 +544,7 @@ def animate_machine(path, mech, shapes, t, Q, *, scale: float = 1.0, fps: int = 
     try:
         plotter.set_background("white")
         drawn = _Drawn(plotter, pv, mech, shapes, Q[picks[0]], scale, clim, style)
-        pivots = _Pivots(plotter, pv, mech, Q[picks[0]], style, shapes)
+        pivots = _Pivots(plotter, pv, mech, Q[picks[0]], style, shapes, scale)
         extra = _furniture(plotter, pv, bounds, camera, style)
         _bar(plotter, scale, clim, style.color)
         clock = _text_actor(plotter.renderer, "t = 0 s", style.font_px, box=False)
@@ -532,7 +552,7 @@ def animate_machine(path, mech, shapes, t, Q, *, scale: float = 1.0, fps: int = 
         _camera(plotter, camera, style.up)
         _frame(plotter, bounds, extra)
         for k in picks:
-            poses = link_poses(mech, Q[k])
+            poses = link_poses(mech, drawn_configuration(mech, Q[k], scale))
             drawn.update(Q[k], poses)
             pivots.update(Q[k], poses)
             clock.SetInput(f"t = {t[k]:.3f} s")

@@ -10,7 +10,7 @@ import numpy as np
 
 from pipeline.core.atomic import atomic_open, atomic_path
 from pipeline.core.progress import progress_counter
-from pipeline.post.scene import link_poses, posed_points
+from pipeline.post.scene import drawn_configuration, link_poses, posed_points
 
 logger = logging.getLogger(__name__)
 
@@ -18,14 +18,18 @@ logger = logging.getLogger(__name__)
 def machine_grid(mech, shapes, q, scale: float = 1.0):
     """(points (N, 3), cells [(type, array)], point data, cell data) of all links at q.
 
-    Point data: elastic ``displacement`` (ground axes, m) and its magnitude, and
+    The points are drawn with the deformation ``scale`` times along the whole chain
+    (:func:`pipeline.post.scene.posed_points`). Point data: elastic ``displacement``
+    (ground axes, m; from where the point is with every modal coordinate zero, so a link
+    carried by a flexible one shows that too) and its magnitude, and
     ``von_mises`` (Pa, NaN on links without stress modes) when a link has stress modes."""
     pts, tri, lines, disp, tri_id, line_id, n0 = [], [], [], [], [], [], 0
     vm = []
-    poses = link_poses(mech, q)
+    poses = link_poses(mech, drawn_configuration(mech, q, scale))
+    rigid = link_poses(mech, drawn_configuration(mech, q, 0.0))
     for i, (name, s) in enumerate(shapes.items()):
         P, _ = posed_points(mech, s, q, scale, poses)
-        P0, _ = posed_points(mech, s, q, 0.0, poses)
+        P0, _ = posed_points(mech, s, q, 0.0, rigid)
         pts.append(P)
         disp.append((P - P0) / scale if scale else np.zeros_like(P))
         v = s.von_mises(np.asarray(q, float)[mech.modal_index[mech.link_index(s.link)]])

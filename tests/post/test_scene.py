@@ -337,3 +337,34 @@ def test_peak_stress_is_the_largest_over_every_output(tmp_path):
     assert np.isnan(vmax[n:]).all()
     k = int(np.argmax(every.max(axis=0)))
     assert mesh.point_data["time_of_max"][k] == pytest.approx(t[every[:, k].argmax()])
+
+
+def test_exaggerated_deformation_keeps_the_joints_together():
+    """Issue 29: at x5 the link hanging on a flexible link was drawn at the true joint while
+    the flexible link's tip was drawn magnified, detached from it. Drawn ``scale`` times
+    along the whole chain, the child's root stays on the parent's drawn tip, and the drawn
+    joint with them; scale 1 is the true configuration."""
+    from pipeline.post.scene import drawn_configuration, joint_points, posed_points
+
+    mech0, shapes = _machine()
+    links = [rigid_link("ground"), rigid_link("a", {"B": translation([1.0, 0, 0])}),
+             next(lk for lk in mech0.links if lk.name == "b"), rigid_link("c")]
+    joints = [Joint("j1", "revolute", "ground", "body", "a", "body"),
+              Joint("j2", "revolute", "a", "B", "b", "body"),
+              Joint("j3", "revolute", "b", "tip", "c", "body")]
+    mech = build_mechanism(links, joints)
+    child = LinkShape("c", np.array([[0.0, 0, 0], [0.5, 0, 0]]), None, np.array([[0, 1]]))
+    q = np.zeros(mech.n)
+    q[mech.index("b.eta1")] = 0.3  # mode 1: its tip field equals the tip frame's phi
+    q[mech.index("j1.theta")], q[mech.index("j3.theta")] = 0.4, -0.6
+    for scale in (1.0, 5.0):
+        tip = posed_points(mech, shapes["b"], q, scale)[0][-1]
+        root = posed_points(mech, child, q, scale)[0][0]
+        np.testing.assert_allclose(root, tip, atol=1e-12)
+        pivot = joint_points(mech, drawn_configuration(mech, q, scale))[0][2]
+        np.testing.assert_allclose(pivot, tip, atol=1e-12)
+    true_tip = posed_points(mech, shapes["b"], q, 1.0)[0][-1]
+    drawn_tip = posed_points(mech, shapes["b"], q, 5.0)[0][-1]
+    # b hangs on a at j2 = 0, turned 0.4 rad: its tip moves (5 - 1) x 0.1 x 0.3 m sideways
+    np.testing.assert_allclose(drawn_tip - true_tip, _rz(0.4) @ [0, 4 * 0.1 * 0.3, 0],
+                               atol=1e-12)
