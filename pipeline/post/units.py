@@ -27,11 +27,13 @@ def to_display(values, unit: str, units: DisplayUnits) -> tuple[np.ndarray, str]
     """(values, unit) of an SI series converted to ``units``.
 
     Lengths, forces and angles convert, also as the numerator of a rate ("m/s",
-    "rad/s²") and in moments ("N m" -> "kN mm"); other units pass unchanged.
+    "rad/s²"); moments take the force unit and stay per metre ("N m" -> "kN m", whatever
+    the length unit: a torque in kN mm reads as a thousand times too large at a glance);
+    other units pass unchanged.
 
     >>> to_display([0.5], "rad", DisplayUnits(angle="deg"))[0].round(4).tolist()
     [28.6479]
-    >>> to_display([2500.0], "N m", DisplayUnits(force="kN"))
+    >>> to_display([2500.0], "N m", DisplayUnits(force="kN", length="mm"))
     (array([2.5]), 'kN m')
     >>> to_display([0.01], "m/s", DisplayUnits(length="mm"))
     (array([10.]), 'mm/s')
@@ -48,7 +50,6 @@ def to_display(values, unit: str, units: DisplayUnits) -> tuple[np.ndarray, str]
         return v * FORCE[units.force], units.force + slash + tail
     if head == "Pa":
         return v * STRESS[units.stress], units.stress + slash + tail
-    if head == "N m":  # moments in force x length units
-        return (v * FORCE[units.force] * LENGTH[units.length],
-                f"{units.force} {units.length}" + slash + tail)
+    if head == "N m":  # moments: the force unit times metres (kN m, as engineers read them)
+        return v * FORCE[units.force], f"{units.force} m" + slash + tail
     return v, unit

@@ -11,7 +11,9 @@ deflection:l.f:y@link    x, y, z in the body axes of ``link`` (a
                          deflection in its own link's axes is signed and
                          free of the link's rotation)
 energy:total             kinetic, gravity, elastic, forces, dissipated,  J
-                         driver_work, total (dynamic runs)
+                         driver_work (dynamic runs); total: its change
+                         since the start, the balance's drift (zero in
+                         an exact run)
 driver_force:LCYL.d      force a driver/held coordinate applies          N, N m
 state:boom_cyl.p_a       a force element's own state (a hydraulic        Pa
                          cylinder's chamber pressure; dynamic runs)
@@ -146,7 +148,10 @@ def series(result, mech, spec: str, parts=None) -> Series:
                               "energies (dynamic analyses do)")
         if rest not in result.energies:
             raise ConfigError(f"series {spec!r}: expected one of {sorted(result.energies)}")
-        return Series(np.asarray(result.energies[rest]), f"{rest} energy", "J")
+        e = np.asarray(result.energies[rest], dtype=float)
+        if rest == "total":  # conserved: what a reader looks for is its drift, not its level
+            return Series(e - e[0], "total energy change since the start (drift)", "J")
+        return Series(e, f"{rest} energy", "J")
     if kind == "driver_force":
         if rest not in result.forces:
             raise ConfigError(f"series {spec!r}: analysis '{result.name}' has actuator forces "

@@ -162,3 +162,19 @@ def test_deflection_in_its_own_link_axes_is_the_signed_modal_displacement(run):
     np.testing.assert_allclose(norm, np.linalg.norm(u_tip, axis=1), atol=tol)
     with pytest.raises(ConfigError, match="axes 'nowhere'"):
         series(r, mech, "deflection:lower.tip:y@nowhere")
+
+
+def test_the_total_energy_series_is_its_drift():
+    """Issue 29: the energy panel plotted the total's level, a line at its start value whose
+    drift no reader could see. The series is its change since the start, named so."""
+    from types import SimpleNamespace
+
+    from pipeline.workflow.series import series
+
+    r = SimpleNamespace(name="swing", type="dynamic", t=np.arange(3.0),
+                        energies={"total": np.array([5.0, 5.0 + 1e-9, 5.0 - 2e-9]),
+                                  "kinetic": np.array([0.0, 1.0, 2.0])})
+    s = series(r, None, "energy:total")
+    np.testing.assert_allclose(s.values, [0.0, 1e-9, -2e-9], atol=1e-18)
+    assert "change since the start" in s.label and s.unit == "J"
+    np.testing.assert_array_equal(series(r, None, "energy:kinetic").values, [0.0, 1.0, 2.0])
