@@ -8,11 +8,29 @@ import numpy as np
 
 from pipeline.post.plots import new_figure, save_figure
 
+#: the smallest difference a bar is drawn to (an exact zero has no logarithm)
+FLOOR = 1e-16
+
+
+def log_bar_limits(values) -> tuple[float, float]:
+    """(bottom, top) of a log axis for bars of ``values``: a decade below the smallest
+    (floored at :data:`FLOOR`), so that every bar has a visible height (autoscaling put the
+    bottom just under the smallest, and a 4e-3 bar beside a 2e-2 one looked like nothing),
+    and a third of a decade above the largest, for its label.
+
+    >>> log_bar_limits([3.8e-3, 2.2e-2, 9.5e-3])
+    (0.0001, 0.047...)
+    """
+    v = np.maximum(np.asarray(values, dtype=float), FLOOR)
+    bottom = 10.0 ** (np.floor(np.log10(v.min())) - 1.0)
+    return float(bottom), float(v.max() * 10 ** (1 / 3))
+
 
 def plot_convergence(path: str | Path, labels, relative: dict, *, reference: str,
                      title: str | None = None) -> Path:
-    """PNG: one group of bars per case, one bar per series, log scale (reference omitted; a
-    value that is not finite draws no bar, and a chart with none says so).
+    """PNG: one group of bars per case, one bar per series, log scale from a decade below
+    the smallest bar (:func:`log_bar_limits`), each bar labelled with its value (reference
+    omitted; a value that is not finite draws no bar, and a chart with none says so).
 
     Parameters
     ----------
@@ -23,16 +41,18 @@ def plot_convergence(path: str | Path, labels, relative: dict, *, reference: str
     ax = fig.subplots()
     width = 0.8 / max(len(relative), 1)
     x = np.arange(len(keep))
-    drawn = 0
+    drawn = []
     for j, (name, values) in enumerate(relative.items()):
         v = np.asarray(values, dtype=float)[keep]
         ok = np.isfinite(v)  # no comparison (a case without data, a zero reference): no bar
-        drawn += int(ok.sum())
-        ax.bar((x + (j - (len(relative) - 1) / 2) * width)[ok], np.maximum(v[ok], 1e-16),
-               width, label=name)
+        drawn += v[ok].tolist()
+        bars = ax.bar((x + (j - (len(relative) - 1) / 2) * width)[ok],
+                      np.maximum(v[ok], FLOOR), width, label=name)
+        ax.bar_label(bars, labels=[f"{b:.2g}" for b in v[ok]], fontsize=7)
     ax.set_xticks(x, [labels[i] for i in keep])
     if drawn:
         ax.set_yscale("log")
+        ax.set_ylim(*log_bar_limits(drawn))
     else:
         ax.text(0.5, 0.5, "no difference could be computed\n(see the CSV and the run's notes)",
                 ha="center", va="center", transform=ax.transAxes)
