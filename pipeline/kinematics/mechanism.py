@@ -92,34 +92,16 @@ class Step:
 
 @dataclass(frozen=True)
 class StepTable:
-    """All steps (tree steps in placement order, then each loop's two sides) with
-    the constant matrices of the rigid one-motion steps stacked for vectorised
-    evaluation.
+    """All steps: the tree steps in placement order, then each loop's two sides.
 
     Attributes
     ----------
     steps : every step; ``tree_slot[l]`` / ``loop_slot[k]`` index into it.
-    iR, iT, iF, iG : step indices of rotation, translation, fixed and general steps.
-    R0, R1, R2 : (nR, 4, 4) C0, C1, C2 of the rotation steps; qR (nR,) their coordinate.
-    T0, T1 : (nT, 4, 4) C0, C1 of the translation steps; qT (nT,) their coordinate.
-    F0 : (nF, 4, 4) constant M of the fixed steps.
     """
 
     steps: tuple[Step, ...]
     tree_slot: tuple[int, ...]
     loop_slot: tuple[tuple[int, int], ...]
-    iR: np.ndarray
-    iT: np.ndarray
-    iF: np.ndarray
-    iG: np.ndarray
-    R0: np.ndarray
-    R1: np.ndarray
-    R2: np.ndarray
-    qR: np.ndarray
-    T0: np.ndarray
-    T1: np.ndarray
-    qT: np.ndarray
-    F0: np.ndarray
 
 
 def _table(tree, loops, placement) -> StepTable:
@@ -131,19 +113,7 @@ def _table(tree, loops, placement) -> StepTable:
     for left, right in loops:
         loop_slot.append((len(steps), len(steps) + 1))
         steps += [left, right]
-    kind = [st.fast[0] if st.fast is not None else "G" for st in steps]
-    idx = {k: np.array([i for i, x in enumerate(kind) if x == k], dtype=int)
-           for k in ("R", "T", "fixed", "G")}
-
-    def stack(k, j):
-        return np.array([steps[i].fast[j] for i in idx[k]]).reshape(-1, 4, 4)
-
-    def coord(k):
-        return np.array([steps[i].fast[4] for i in idx[k]], dtype=int)
-
-    return StepTable(tuple(steps), tuple(tree_slot), tuple(loop_slot), idx["R"], idx["T"],
-                     idx["fixed"], idx["G"], stack("R", 1), stack("R", 2), stack("R", 3),
-                     coord("R"), stack("T", 1), stack("T", 2), coord("T"), stack("fixed", 1))
+    return StepTable(tuple(steps), tuple(tree_slot), tuple(loop_slot))
 
 
 @dataclass(frozen=True)
@@ -161,7 +131,7 @@ class Mechanism:
     loop_steps : per loop, (parent side, child side) steps of the cut joint.
     length_scale : m, largest frame offset (>= 1e-3); scales position rows.
     placement : link indices, ground first, each after its tree parent.
-    table : every step stacked for vectorised evaluation.
+    table : every step (tree, then loops), indexed by placement and loop.
     """
 
     links: tuple[Link, ...]

@@ -46,6 +46,44 @@ class NumpyClosure:
 
 
 @dataclass(frozen=True)
+class _Stacks:
+    """The constant matrices of the rigid one-motion steps stacked for vectorised
+    evaluation: step indices iR, iT, iF, iG of rotation, translation, fixed and general
+    steps; R0, R1, R2 (nR, 4, 4) and coordinates qR of the rotations; T0, T1 and qT of the
+    translations; F0 of the fixed steps (Step.fast)."""
+
+    iR: np.ndarray
+    iT: np.ndarray
+    iF: np.ndarray
+    iG: np.ndarray
+    R0: np.ndarray
+    R1: np.ndarray
+    R2: np.ndarray
+    qR: np.ndarray
+    T0: np.ndarray
+    T1: np.ndarray
+    qT: np.ndarray
+    F0: np.ndarray
+
+
+def _stacks(mech: Mechanism) -> _Stacks:
+    steps = mech.table.steps
+    kind = [st.fast[0] if st.fast is not None else "G" for st in steps]
+    idx = {k: np.array([i for i, x in enumerate(kind) if x == k], dtype=int)
+           for k in ("R", "T", "fixed", "G")}
+
+    def stack(k, j):
+        return np.array([steps[i].fast[j] for i in idx[k]]).reshape(-1, 4, 4)
+
+    def coord(k):
+        return np.array([steps[i].fast[4] for i in idx[k]], dtype=int)
+
+    return _Stacks(idx["R"], idx["T"], idx["fixed"], idx["G"], stack("R", 1), stack("R", 2),
+                   stack("R", 3), coord("R"), stack("T", 1), stack("T", 2), coord("T"),
+                   stack("fixed", 1))
+
+
+@dataclass(frozen=True)
 class Locals:
     """Local matrices of every step of ``mech.table`` at one configuration.
 
@@ -66,8 +104,8 @@ def local_matrices(mech: Mechanism, q: np.ndarray, qd: np.ndarray | None = None,
                    need_d: bool = True) -> Locals:
     """Evaluate every step's local matrix at once (rigid one-motion steps vectorised);
     with rates qd (n,) also M', M'' (see :func:`local_rates`)."""
-    tab = mech.table
-    S = len(tab.steps)
+    tab = _stacks(mech)
+    S = len(mech.table.steps)
     M, D1 = np.empty((S, 4, 4)), np.zeros((S, 4, 4))
     if tab.iR.size:
         x = q[tab.qR][:, None, None]
@@ -81,7 +119,7 @@ def local_matrices(mech: Mechanism, q: np.ndarray, qd: np.ndarray | None = None,
         M[tab.iF] = tab.F0
     general = {}
     for k in tab.iG:
-        M[k], general[k], _, _ = step_local(tab.steps[k], q, None, need_d)
+        M[k], general[k], _, _ = step_local(mech.table.steps[k], q, None, need_d)
     loc = Locals(M, D1, general, None)
     return loc if qd is None else local_rates(mech, q, qd, loc)
 
@@ -92,7 +130,7 @@ def local_rates(mech: Mechanism, q: np.ndarray, qd: np.ndarray, loc: Locals) -> 
     Lets a caller close the loops first and add the rates once q' is known,
     without evaluating the positions twice.
     """
-    tab = mech.table
+    tab = _stacks(mech)
     M = loc.M
     Md, Mdd = np.zeros_like(M), np.zeros_like(M)
     if tab.iR.size:
@@ -104,7 +142,7 @@ def local_rates(mech: Mechanism, q: np.ndarray, qd: np.ndarray, loc: Locals) -> 
     if tab.iT.size:
         Md[tab.iT] = qd[tab.qT][:, None, None] * tab.T1
     for k in tab.iG:
-        _, _, Md[k], Mdd[k] = step_local(tab.steps[k], q, qd, need_d=False)
+        _, _, Md[k], Mdd[k] = step_local(mech.table.steps[k], q, qd, need_d=False)
     MB = np.zeros((M.shape[0], 12, 12))
     for b in range(3):
         MB[:, 4 * b:4 * b + 4, 4 * b:4 * b + 4] = M
