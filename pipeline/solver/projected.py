@@ -41,6 +41,7 @@ from pipeline.core.errors import PipelineError
 from pipeline.core.progress import progress_counter
 from pipeline.kinematics.closure import closure
 from pipeline.solver.constrained import REGULARISATION, ConstrainedSystem
+from pipeline.solver.dae_kernels import hermite
 from pipeline.solver.index3_compiled import stepper
 from pipeline.solver.index3_compiled import stepper as make_stepper
 from pipeline.solver.monitors import StallWatch
@@ -263,9 +264,10 @@ def run_projected(system, q0, qd0, t0, t1, te, solver_cls, name, *, rtol, atol,
 
 
 def _jacobian_singular_values(cs: ConstrainedSystem, f: _Index1, t, y) -> np.ndarray:
-    """Singular values of the closure Jacobian's integrated columns at (t, y), largest
-    first."""
-    return np.linalg.svd(cs.evaluate(t, *f.full(t, y)).C[:, cs.U], compute_uv=False)
+    """Singular values of the closure Jacobian's integrated columns at (t, y) (weighted
+    rows, as ``cs.evaluate(...).C``; the positions alone decide them), largest first."""
+    J = closure(cs.system.mechanism, f.full(t, y)[0]).J
+    return np.linalg.svd(cs.w[:, None] * J[:, cs.U], compute_uv=False)
 
 
 def _rank(cs: ConstrainedSystem, f: _Index1, t, y) -> int:
@@ -284,11 +286,10 @@ def _near_singular(cs: ConstrainedSystem, f: _Index1, t, y, rank0: int) -> bool:
     return s.size >= rank0 and s[rank0 - 1] < NEAR_SINGULAR * s[0]
 
 
-def _ratio(cs: ConstrainedSystem, q: np.ndarray, rank0: int) -> float:
+def _ratio(cs: ConstrainedSystem, f: _Index1, t, y, rank0: int) -> float:
     """Singular value number ``rank0`` of the closure Jacobian's integrated columns over
-    its largest at the positions q (n,)."""
-    J = cs.w[:, None] * closure(cs.system.mechanism, q).J[:, cs.U]
-    s = np.linalg.svd(J, compute_uv=False)
+    its largest at (t, y)."""
+    s = _jacobian_singular_values(cs, f, t, y)
     return s[rank0 - 1] / s[0] if s.size >= rank0 and s[0] > 0 else 0.0
 
 
@@ -301,14 +302,12 @@ def _dips_inside(cs: ConstrainedSystem, f: _Index1, t0, y0, t1, y1, rank0: int,
     nU = f.nU
     h = t1 - t0
     q0, v0, q1, v1 = y0[:nU], y0[nU:2 * nU], y1[:nU], y1[nU:2 * nU]
-    ends = min(_ratio(cs, f.full(t0, y0)[0], rank0), _ratio(cs, f.full(t1, y1)[0], rank0))
+    ends = min(_ratio(cs, f, t0, y0, rank0), _ratio(cs, f, t1, y1, rank0))
     y = y1.copy()
     for k in range(1, samples):
         s = k / samples
-        h00, h10, h01, h11 = (1 + 2 * s) * (1 - s) ** 2, s * (1 - s) ** 2, s * s * (3 - 2 * s), \
-            s * s * (s - 1)
-        y[:nU] = h00 * q0 + h10 * h * v0 + h01 * q1 + h11 * h * v1
-        r = _ratio(cs, f.full(t0 + s * h, y)[0], rank0)
+        y[:nU] = hermite(q0, v0, q1, v1, h, s)[0]
+        r = _ratio(cs, f, t0 + s * h, y, rank0)
         if r < NEAR_SINGULAR and r < 0.5 * ends:
             return True
     return False
@@ -322,13 +321,10 @@ def _index3_outputs(cs: ConstrainedSystem, f: _Index1, grid: OutputGrid, t0, y0,
     Why: the dense output there is off the constraints, and moving it back onto them near a
     singular position shifts it along the branch by that offset over the small singular value
     (2e-5 rad at rtol 1e-8 on the parallelogram, whose step ends are right to 1e-7). If the
-    index-3 steps fail, the dense output records them as before."""
+    index-3 steps fail, they record nothing and the dense output records them as before."""
     n = max(8, int(np.ceil(rtol ** (-1.0 / 3.0))))
-    h = (t1 - t0) / n
-    k = grid.k
-    if isinstance(_bridge(cs, f, grid, t0, y0, h, t1 - same_time(t1), rtol, atol, unit, jump,
-                          n_steps=n), str):
-        grid.k = k  # pragma: no cover - the dense output records them
+    _bridge(cs, f, grid, t0, y0, (t1 - t0) / n, t1 - same_time(t1), rtol, atol, unit, jump,
+            n_steps=n)
 
 
 def _bridge(cs: ConstrainedSystem, f: _Index1, grid: OutputGrid, t, y, h, t1, rtol, atol,
