@@ -196,15 +196,15 @@ def _assemble(request: LinkRequest, mesh: MeshData) -> FemModel:
 
     where = f"link '{request.name}'"
     check_material(request.material, where)
-    matrices = getattr(request.geometry, "matrices", None)
-    if matrices is not None:
+    g = request.geometry
+    if isinstance(g, MeshFileGeometry) and g.matrices is not None:
         from pipeline.fem.imported import read_matrices
 
         if request.geometric_stiffening:
             raise ConfigError(f"{where}: modes.geometric_stiffening: needs the element "
                               "formulation, which a link imported as matrices does not carry: "
                               "leave it off (or import the mesh alone and assemble it here)")
-        model = read_matrices(matrices, mesh, request.geometry.scale, request.name)
+        model = read_matrices(g.matrices, mesh, g.scale, request.name)
     elif mesh.kind == "solid":
         if request.material.nu > NEARLY_INCOMPRESSIBLE:
             logger.warning(

@@ -119,6 +119,12 @@ class MeshFileGeometry:
             raise ConfigError(f"geometry.units: expected one of {sorted(UNITS)}, "
                               f"got {self.units!r}")
 
+    def files(self) -> tuple[Path, ...]:
+        """Every file the link is read from: the mesh, then the matrices' own files."""
+        if self.matrices is None:
+            return (self.path,)
+        return (self.path,) + tuple(p for p in self.matrices.files() if p != self.path)
+
     @property
     def scale(self) -> float:
         """Metres per file unit."""
@@ -155,8 +161,8 @@ def read_mesh(geometry: MeshFileGeometry, name: str) -> MeshData:
             AssertionError, UnicodeDecodeError) as exc:  # meshio's errors on bad files
         raise MeshError(f"{where}: meshio could not read it as {geometry.format}: "
                         f"{type(exc).__name__}: {exc}") from None
-    blocks = [(k, c.type, np.asarray(c.data, dtype=np.int64)) for k, c in enumerate(m.cells)]
-    kinds = {t for _, t, _ in blocks}
+    blocks = [(c.type, np.asarray(c.data, dtype=np.int64)) for c in m.cells]
+    kinds = {t for t, _ in blocks}
     other = sorted(kinds & set(_OTHER_VOLUMES))
     if other:
         raise MeshError(f"{where}: has {', '.join(other)} cells; the FE stage takes "
@@ -172,7 +178,7 @@ def read_mesh(geometry: MeshFileGeometry, name: str) -> MeshData:
     if left:
         logger.info("%s: %s cells are not part of the solid and are left out", where,
                     ", ".join(left))
-    conn = np.concatenate([d for _, t, d in blocks if t == cell])
+    conn = np.concatenate([d for t, d in blocks if t == cell])
     points = np.asarray(m.points, dtype=float)
     if points.shape[1] == 2:
         raise MeshError(f"{where}: its points are 2D; a solid link needs x, y, z")
@@ -209,13 +215,13 @@ def _groups(m, blocks, new: np.ndarray, where: str) -> dict[str, np.ndarray]:
     for name, idx in (m.point_sets or {}).items():
         add(name, idx)
     for name, per_block in (m.cell_sets or {}).items():
-        for (k, _, data), idx in zip(blocks, per_block, strict=False):
+        for (_, data), idx in zip(blocks, per_block, strict=False):
             if idx is not None and len(idx):
                 add(name, data[np.asarray(idx, dtype=np.int64)])
     physical = (m.cell_data or {}).get("gmsh:physical")
     if physical is not None and m.field_data:
         tags = {int(v[0]): n for n, v in m.field_data.items()}
-        for (k, _, data), phys in zip(blocks, physical, strict=False):
+        for (_, data), phys in zip(blocks, physical, strict=False):
             for tag in np.unique(phys):
                 if int(tag) in tags:
                     add(tags[int(tag)], data[phys == tag])

@@ -93,8 +93,7 @@ def link_request(spec: LinkSpec, base_dir: Path) -> tuple[LinkRequest, tuple[Pat
                                    None if mx.dofs is None else (base_dir / mx.dofs).resolve(),
                                    mx.mass_unit)
         geometry = MeshFileGeometry(path, g.units, g.expected_mass, matrices)
-        files = tuple(p for p in ((path,) + (matrices.files() if matrices else ()))
-                      if p.is_file())
+        files = tuple(p for p in geometry.files() if p.is_file())
     else:
         geometry = BeamGeometry(np.asarray(g.points, float), g.element_size,
                                 tuple(g.vertex_names))
@@ -175,8 +174,9 @@ def reduce_spec(spec: LinkSpec, base_dir: Path, out_dir: Path, rebuild: bool = F
     -------
     (ReducedLink, status) with status "hit", "miss", "corrupt" or "rebuilt".
     """
-    return _reduce_to(spec, base_dir, lambda digest: Path(out_dir) / f"{spec.name}.npz",
-                      rebuild)
+    link, status, _ = _reduce_to(spec, base_dir,
+                                 lambda digest: Path(out_dir) / f"{spec.name}.npz", rebuild)
+    return link, status
 
 
 def reduce_cached(spec: LinkSpec, base_dir: Path, cache_dir: Path, rebuild: bool = False,
@@ -191,18 +191,14 @@ def reduce_cached(spec: LinkSpec, base_dir: Path, cache_dir: Path, rebuild: bool
     """
     from pipeline.invariants.cache import artifact_path
 
-    where = {}
-
-    def path_of(digest):
-        where["path"] = artifact_path(cache_dir, spec.name, digest)
-        return where["path"]
-
     extra = {"spec_file": str(Path(spec_file).resolve())} if spec_file is not None else {}
-    link, status = _reduce_to(spec, base_dir, path_of, rebuild, extra)
-    return link, status, where["path"]
+    return _reduce_to(spec, base_dir, lambda digest: artifact_path(cache_dir, spec.name, digest),
+                      rebuild, extra)
 
 
 def _reduce_to(spec: LinkSpec, base_dir: Path, path_of, rebuild: bool, extra=None):
+    """(link, status, artifact path) of ``spec``, its artifact at ``path_of(input hash)``;
+    ``extra``: provenance added to its meta."""
     from pipeline.core.progress import StageTimes
     from pipeline.invariants.cache import cached_reduced_link
     from pipeline.invariants.reduce import reduce_link
@@ -219,4 +215,4 @@ def _reduce_to(spec: LinkSpec, base_dir: Path, path_of, rebuild: bool, extra=Non
         return reduce_link(request, StageTimes(), meta)
 
     link, status = cached_reduced_link(path, digest, build)
-    return link, ("rebuilt" if rebuild else status)
+    return link, ("rebuilt" if rebuild else status), path
