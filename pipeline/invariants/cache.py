@@ -25,7 +25,7 @@ from pathlib import Path
 
 from pipeline.core.errors import ArtifactError
 from pipeline.invariants.reduced_link import ReducedLink
-from pipeline.invariants.store import load_reduced_link, save_reduced_link
+from pipeline.invariants.store import load_reduced_link, read_header, save_reduced_link
 
 logger = logging.getLogger(__name__)
 
@@ -74,9 +74,8 @@ def cache_entries(cache_dir: str | Path) -> list[CacheEntry]:
         if npz is None or not npz.is_file() or folder.is_symlink():
             continue
         size = sum(f.stat().st_size for f in folder.rglob("*") if f.is_file())
-        spec = None
         try:
-            spec = load_reduced_link(npz).meta.get("spec_file")
+            spec = read_header(npz).get("meta", {}).get("spec_file")
         except ArtifactError:
             spec = "(unreadable: rebuilt on next use)"
         out.append(CacheEntry(folder, m.group("name"), m.group("hash"), size,

@@ -71,6 +71,24 @@ def save_reduced_link(link: ReducedLink, path: str | Path) -> Path:
     return save_npz_atomic(path, header=np.array(json.dumps(header)), **arrays)
 
 
+#: what reading a damaged or foreign .npz raises
+_UNREADABLE = (zipfile.BadZipFile, OSError, ValueError, KeyError, EOFError)
+
+
+def read_header(path: str | Path) -> dict:
+    """The header of an artifact (name, kind, frames, meta, ...) without reading or checking
+    its arrays (a listing of the cache need not load every link); ArtifactError if it
+    cannot be read."""
+    try:
+        with np.load(Path(path), allow_pickle=False) as data:
+            header = json.loads(str(data["header"]))
+    except _UNREADABLE as exc:
+        raise ArtifactError(f"{path}: unreadable reduced-link artifact ({exc})") from exc
+    if header.get("format") != FORMAT:
+        raise ArtifactError(f"{path}: not a {FORMAT} file")
+    return header
+
+
 def load_reduced_link(path: str | Path) -> ReducedLink:
     """Read a :class:`ReducedLink`; raise ArtifactError if it is not intact."""
     path = Path(path)
@@ -80,7 +98,7 @@ def load_reduced_link(path: str | Path) -> ReducedLink:
         with np.load(path, allow_pickle=False) as data:
             header = json.loads(str(data["header"]))
             arrays = {k: data[k] for k in data.files if k != "header"}
-    except (zipfile.BadZipFile, OSError, ValueError, KeyError, EOFError) as exc:
+    except _UNREADABLE as exc:
         raise ArtifactError(f"{path}: unreadable reduced-link artifact ({exc})") from exc
     if header.get("format") != FORMAT or header.get("version") != FORMAT_VERSION:
         raise ArtifactError(f"{path}: not a {FORMAT} v{FORMAT_VERSION} file")

@@ -364,7 +364,7 @@ def view_setting(camera, up=None) -> tuple[np.ndarray, np.ndarray] | None:
         return v, u
     v = view_direction(camera)
     if abs(v @ u) >= 0.9:  # looking along up: the screen's up is a horizontal axis
-        u = np.eye(3)[int(np.argmin(np.abs(np.eye(3) @ v)))]
+        u = np.eye(3)[int(np.argmin(np.abs(v)))]
     return v, u
 
 
