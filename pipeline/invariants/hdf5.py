@@ -31,13 +31,12 @@ format ``flexmech.ReducedLink`` is laid out as
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from pipeline import __version__
+from pipeline.core.atomic import atomic_path
 from pipeline.core.errors import ArtifactError, ConfigError
 from pipeline.invariants.reduced_link import FrameModes, ReducedLink
 
@@ -83,42 +82,40 @@ def write_hdf5(link: ReducedLink, path: str | Path) -> Path:
     h5py = _h5py()
     path = Path(path)
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
-    except OSError as exc:
+        with atomic_path(path) as tmp:
+            _write(h5py, link, tmp)
+    except OSError as exc:  # an unwritable folder: the target named, not the temporary file
         raise ArtifactError(f"{path}: cannot write the HDF5 file here "
                             f"({exc.strerror or exc})") from None
-    os.close(fd)
-    try:
-        with h5py.File(tmp, "w") as f:
-            f.attrs.update({"format": FORMAT, "format_version": FORMAT_VERSION,
-                            "name": link.name, "kind": link.kind, "units": "SI",
-                            "pipeline": __version__})
-            for key, (attr, units) in {**_REQUIRED, **_OPTIONAL}.items():
-                a = np.asarray(getattr(link, attr))
-                if key in _OPTIONAL and not a.size:
-                    continue
-                ds = f.create_dataset(key, data=a, compression="gzip" if a.size > 4096 else None)
-                ds.attrs["units"] = units
-            f["mesh/cells"].attrs["cell_type"] = _cell_type(link)
-            f.create_dataset("modes/kinds", data=np.array(link.mode_kinds, dtype="S"))
-            if link.stress_modes.size:
-                f["modes/stress"].attrs["components"] = (
-                    "xx, yy, zz, yz, xz, xy (body axes)" if link.kind == "solid"
-                    else "N, Vy, Vz, T, My, Mz (element axes)")
-            frames = f.create_group("frames")
-            for k, fr in enumerate(link.frames):
-                g = frames.create_group(str(k))
-                g.attrs.update({"name": fr.name, "kind": fr.kind})
-                g.create_dataset("pose", data=fr.pose)
-                g.create_dataset("phi", data=np.asarray(fr.phi).reshape(link.n_modes, 3))
-                g.create_dataset("psi", data=np.asarray(fr.psi).reshape(link.n_modes, 3))
-            f.create_group("meta").attrs["json"] = json.dumps(dict(link.meta), default=str)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
     return path
+
+
+def _write(h5py, link: ReducedLink, path: Path) -> None:
+    """The datasets and attributes of the format (module docstring) into a new file."""
+    with h5py.File(path, "w") as f:
+        f.attrs.update({"format": FORMAT, "format_version": FORMAT_VERSION,
+                        "name": link.name, "kind": link.kind, "units": "SI",
+                        "pipeline": __version__})
+        for key, (attr, units) in {**_REQUIRED, **_OPTIONAL}.items():
+            a = np.asarray(getattr(link, attr))
+            if key in _OPTIONAL and not a.size:
+                continue
+            ds = f.create_dataset(key, data=a, compression="gzip" if a.size > 4096 else None)
+            ds.attrs["units"] = units
+        f["mesh/cells"].attrs["cell_type"] = _cell_type(link)
+        f.create_dataset("modes/kinds", data=np.array(link.mode_kinds, dtype="S"))
+        if link.stress_modes.size:
+            f["modes/stress"].attrs["components"] = (
+                "xx, yy, zz, yz, xz, xy (body axes)" if link.kind == "solid"
+                else "N, Vy, Vz, T, My, Mz (element axes)")
+        frames = f.create_group("frames")
+        for k, fr in enumerate(link.frames):
+            g = frames.create_group(str(k))
+            g.attrs.update({"name": fr.name, "kind": fr.kind})
+            g.create_dataset("pose", data=fr.pose)
+            g.create_dataset("phi", data=np.asarray(fr.phi).reshape(link.n_modes, 3))
+            g.create_dataset("psi", data=np.asarray(fr.psi).reshape(link.n_modes, 3))
+        f.create_group("meta").attrs["json"] = json.dumps(dict(link.meta), default=str)
 
 
 def _cell_type(link: ReducedLink) -> str:
