@@ -148,7 +148,8 @@ def _calculix_dofs(path: Path, where: str) -> list[tuple[int, int]]:
 
 
 def _triplets(path: Path, n: int, where: str) -> sp.csr_matrix:
-    """A symmetric matrix from ``row col value`` lines of its upper triangle (1-based)."""
+    """A symmetric matrix from ``row col value`` lines (1-based) of one triangle (CalculiX
+    writes the upper) or both."""
     try:
         data = np.loadtxt(path, ndmin=2)
     except ValueError as exc:
@@ -159,8 +160,16 @@ def _triplets(path: Path, n: int, where: str) -> sp.csr_matrix:
     i, j = data[:, 0].astype(np.int64) - 1, data[:, 1].astype(np.int64) - 1
     if i.size and (min(i.min(), j.min()) < 0 or max(i.max(), j.max()) >= n):
         raise MeshError(f"{where}: {path.name}: indices outside 1..{n} (the .dof file's rows)")
-    A = sp.coo_matrix((data[:, 2], (i, j)), shape=(n, n)).tocsr()
-    return A + sp.triu(A, k=1).T
+    return _symmetric(sp.coo_matrix((data[:, 2], (i, j)), shape=(n, n)).tocsr())
+
+
+def _symmetric(A: sp.csr_matrix) -> sp.csr_matrix:
+    """The symmetric matrix of entries given as one triangle (completed by its transpose)
+    or as both (kept)."""
+    upper, lower = sp.triu(A, k=1), sp.tril(A, k=-1)
+    if upper.nnz and lower.nnz:
+        return A
+    return A + (upper.T if upper.nnz else lower.T)
 
 
 def _abaqus_pair(stiffness: Path, mass: Path, where: str):
@@ -184,12 +193,7 @@ def _abaqus_pair(stiffness: Path, mass: Path, where: str):
     for t in tables:
         i = np.array([index[int(a), int(b)] for a, b in t[:, 0:2]], dtype=np.int64)
         j = np.array([index[int(a), int(b)] for a, b in t[:, 2:4]], dtype=np.int64)
-        A = sp.coo_matrix((t[:, 4], (i, j)), shape=(n, n)).tocsr()
-        upper, lower = sp.triu(A, k=1), sp.tril(A, k=-1)
-        if upper.nnz and lower.nnz:  # both triangles written
-            out.append(A)
-        else:
-            out.append(A + (upper.T if upper.nnz else lower.T))
+        out.append(_symmetric(sp.coo_matrix((t[:, 4], (i, j)), shape=(n, n)).tocsr()))
     return [tuple(map(int, k)) for k in keys], out[0], out[1]
 
 

@@ -311,3 +311,16 @@ outputs:
     ref = solve_ivp(lambda t, y: [y[1], -9.81 * k * np.cos(y[0])], (0, 0.1), [0, 0],
                     t_eval=np.linspace(0, 0.1, 11), rtol=1e-10, atol=1e-12).y[0]
     assert np.abs(theta - ref).max() < 2e-4 * np.abs(ref).max()
+
+
+def test_a_matrix_file_of_one_triangle_or_both_reads_the_same():
+    """CalculiX writes the upper triangle, Abaqus the lower or both; each reads as the same
+    symmetric matrix (both triangles of a file were once completed again, doubling the
+    off-diagonal entries)."""
+    import scipy.sparse as sp
+
+    from pipeline.fem.imported import _symmetric
+
+    K = np.array([[4.0, -1.0, 0.5], [-1.0, 3.0, 0.0], [0.5, 0.0, 2.0]])
+    for part in (np.triu(K), np.tril(K), K):
+        np.testing.assert_array_equal(_symmetric(sp.csr_matrix(part)).toarray(), K)
