@@ -251,8 +251,27 @@ def _check_imported(request: LinkRequest, mesh: MeshData, model) -> None:
     positions = {f"interface '{i.name}' origin": i.origin for i in request.interfaces}
     positions.update({f"marker '{m.name}'": m.position for m in request.markers})
     check_units(mesh, positions, g.units, where, g.expected_mass, mass)
+    if g.matrices is not None:
+        _check_matrix_mass(request, mesh, mass, where)
     logger.info("link '%s': imported mesh %s: %d nodes, %.4g m across, %.6g kg", request.name,
                 g.path.name, mesh.n_points, size, mass)
+
+
+def _check_matrix_mass(request: LinkRequest, mesh: MeshData, mass: float, where: str) -> None:
+    """The mass of imported matrices against material.rho times the mesh's volume: a wrong
+    geometry.matrices.mass_unit scales K and M alike, so the frequencies come out right
+    while every inertia and weight of the machine is 1000 times off."""
+    from pipeline.meshing.mesh_data import tet_signed_volumes
+
+    cells = next(iter(mesh.cells.values()))
+    expected = request.material.rho * float(np.abs(tet_signed_volumes(mesh.points, cells)).sum())
+    if abs(mass - expected) > 0.05 * expected:
+        g = request.geometry
+        raise ConfigError(
+            f"{where}: the matrices' mass {mass:.6g} kg (geometry.matrices.mass_unit "
+            f"{g.matrices.mass_unit!r}) is {mass / expected:.4g} times material.rho x the "
+            f"mesh's volume ({expected:.6g} kg): is the mass unit right (t with mm and N), "
+            "and material.rho the FE model's?")
 
 
 def _reference_first(interfaces, reference: str) -> tuple[Interface, ...]:

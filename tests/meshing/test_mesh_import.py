@@ -324,3 +324,18 @@ def test_a_matrix_file_of_one_triangle_or_both_reads_the_same():
     K = np.array([[4.0, -1.0, 0.5], [-1.0, 3.0, 0.0], [0.5, 0.0, 2.0]])
     for part in (np.triu(K), np.tril(K), K):
         np.testing.assert_array_equal(_symmetric(sp.csr_matrix(part)).toarray(), K)
+
+
+@pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (apt calculix-ccx) absent")
+def test_matrices_in_the_wrong_mass_unit_are_caught(tmp_path, box):
+    """CalculiX's matrices in t read as kg: K and M scale alike, so the frequencies would be
+    right and the link's mass 1000 times too small. Its mass against material.rho times the
+    mesh's volume catches it, naming the mass unit."""
+    from pipeline.workflow.link_build import reduce_spec
+
+    _run_calculix(tmp_path / "free", _calculix_deck(box, clamped=False, storage=True), "model")
+    extra = (", matrices: {format: calculix, stiffness: free/model.sti, mass: "
+             "free/model.mas, dofs: free/model.dof, mass_unit: kg}")
+    with pytest.raises(ConfigError, match=r"matrices.mass_unit 'kg'\) is 0.001 times"):
+        reduce_spec(_spec(tmp_path, "free/model.inp", "mm", PLANES, extra), tmp_path,
+                    tmp_path / "out")
