@@ -14,8 +14,8 @@ ONLY_IN = {
     "pydantic": ("workflow", "study"),
     "yaml": ("workflow",),
     "numba": ("kinematics", "dynamics", "solver"),
-    "distributed": ("study",),
-    "dask": ("study",),
+    "distributed": ("core", "study"),  # core: the one case runner
+    "dask": ("core", "study"),
     "pyarrow": ("study",),
 }
 #: subpackage -> pipeline subpackages it must not import (the solver side stays FE-free)

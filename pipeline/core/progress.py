@@ -4,7 +4,8 @@ Library code reports through :func:`stage` (timed, logged; a spinner on an
 interactive stderr), :func:`report` (what the innermost stage is doing now: a
 count, or a table such as the worker cases'), and :func:`progress_bar` /
 :func:`progress_counter` (rich progress bars). Off a terminal, and in worker
-processes (:func:`quiet`), only the log remains; only the CLI decides the
+processes (``QUIET_ENV`` set: :func:`pipeline.core.cases.local_cluster` starts its
+workers so), only the log remains; only the CLI decides the
 logging level.
 """
 
@@ -34,11 +35,6 @@ _running: ContextVar[str | None] = ContextVar("pipeline_stage_name", default=Non
 def interactive() -> bool:
     """True when progress is drawn: stderr is a terminal and this is not a worker."""
     return sys.stderr.isatty() and not os.environ.get(QUIET_ENV)
-
-
-def quiet() -> None:
-    """No progress drawing in this process from now on (worker processes)."""
-    os.environ[QUIET_ENV] = "1"
 
 
 @dataclass

@@ -20,7 +20,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import json
 import logging
 import re
@@ -32,8 +31,9 @@ from typing import Any
 import numpy as np
 
 from pipeline.core.atomic import atomic_open, atomic_path, save_npz_atomic
+from pipeline.core.cases import WORKER_TIMEOUT, CaseLost, Task, run_cases
 from pipeline.core.errors import ConfigError, PipelineError
-from pipeline.core.progress import TaskBoard, stage
+from pipeline.core.progress import stage
 from pipeline.invariants.cache import default_links_dir
 from pipeline.study.bundle import BundlePlugin
 from pipeline.study.cases import Case, study_cases
@@ -43,14 +43,6 @@ logger = logging.getLogger(__name__)
 
 #: rows with these statuses are results; the others (error, lost) are run again
 KEPT = ("ok", "suspect", "partial")
-
-#: seconds a study waits while its cluster has no worker before the cases left are lost
-WORKER_TIMEOUT = 120.0
-
-#: seconds to fetch a finished case's result before looking at the cluster again (its
-#: worker may have died holding it; at 10 s, futures in that state one after another
-#: livelocked a study whose workers were killed every 1-2.5 s)
-GATHER_SECONDS = 1.0
 
 
 @dataclass(frozen=True)
@@ -384,147 +376,36 @@ def _case_file(folder: Path, c: Case) -> Path:
     return folder / "cases" / f"{c.input_hash[:16]}.npz"
 
 
-class _OneLine(logging.Filter):
-    """distributed's records as one line: its tracebacks (a scheduler dying, a cluster
-    shutting down under load) are shown only with ``--debug``."""
-
-    def filter(self, record: logging.LogRecord) -> bool:
-        if logging.getLogger().getEffectiveLevel() > logging.DEBUG:
-            record.exc_info = record.exc_text = record.stack_info = None
-        return True
-
-
-@contextlib.contextmanager
-def _quiet_distributed():
-    """For the study's span: distributed's loggers at this process's level (its cluster's
-    life is logged at INFO) and one line per record; restored after."""
-    log = logging.getLogger("distributed")
-    level, one_line = log.level, _OneLine()
-    log.setLevel(max(logging.WARNING, logging.getLogger().getEffectiveLevel()))
-    handlers = [*logging.getLogger().handlers, *log.handlers]
-    for h in handlers:
-        h.addFilter(one_line)
-    try:
-        yield
-    finally:
-        log.setLevel(level)
-        for h in handlers:
-            h.removeFilter(one_line)
-
-
 def _run(spec, bundle, todo, workers, scheduler, folder, world, finished,
          worker_timeout: float = WORKER_TIMEOUT) -> None:
-    """Run ``todo`` on the cluster from ``bundle`` (the study's files, sent once to each
-    worker); each finished case's row goes to ``finished(case, row)`` as it arrives (its
-    series saved first). A cluster left without a worker for ``worker_timeout`` s (an
-    external one whose workers died) ends the cases left as ``lost``, with that reason,
-    instead of waiting for ever."""
-    try:
-        from distributed import Client, LocalCluster
-    except ImportError:
-        raise ConfigError("studies need dask.distributed: pip install 'dask[distributed]'") \
-            from None
+    """Run ``todo`` with the one case runner (:func:`pipeline.core.cases.run_cases`) from
+    ``bundle`` (the study's files, sent once to each worker); each finished case's row
+    goes to ``finished(case, row)`` as it arrives (its series saved first). A case whose
+    workers died, or that the cluster had no worker left to run, is ``lost`` with the
+    reason."""
     t = spec.truncation
     names = list(t.series) if t is not None else []
     outs = [o.model_dump() for o in spec.outputs]
-    where = scheduler or f"a local cluster of {workers} processes"
-    cluster = None
-    with _quiet_distributed(), stage(f"study {spec.name}: {len(todo)} cases on {where}"):
-        if scheduler is None:
-            cluster = _local_cluster(LocalCluster, workers)
-        client = Client(scheduler or cluster)
-        plugin = BundlePlugin(bundle)
-        try:
-            logger.info("study %s: sending its files and reduced links (%.1f MB) to the "
-                        "workers", spec.name, bundle.size / 1e6)
-            client.register_plugin(plugin, name=plugin.name)
-            futures = {client.submit(run_bundled_case, bundle.key, bundle.workflow, spec.quick,
-                                     {**spec.set, **c.overrides}, c.label,
-                                     spec.analyses, names, outs,
-                                     world if c.kind == "truncation" else None, pure=False,
-                                     key=f"case-{c.input_hash[:16]}"): k
-                       for k, c in enumerate(todo)}
-            board = TaskBoard(c.label for c in todo)
-            submitted = time.perf_counter()
-            for k in range(len(todo)):  # the scheduler does not say which has started
-                board.running(k, submitted)
-            pending, alone_since, looked = set(futures), None, time.monotonic()
+    tasks = [Task(c.label, run_bundled_case,
+                  (bundle.key, bundle.workflow, spec.quick, {**spec.set, **c.overrides},
+                   c.label, spec.analyses, names, outs,
+                   world if c.kind == "truncation" else None), f"case-{c.input_hash[:16]}")
+             for c in todo]
 
-            def record(k: int, res: dict) -> None:
-                c = todo[k]
-                if res["status"] in KEPT:
-                    _save_case(folder, c, res)
-                finished(c, _row(c, res))
-                board.finished(k, res["status"], res["seconds"])
-                logger.info("study %s: %s: %s in %.1f s (%d of %d cases done)", spec.name,
-                            c.label, res["status"], res["seconds"], board.n_done, len(todo))
-                board.show(time.perf_counter())
+    def record(k: int, res, error) -> tuple[str, float]:
+        if error is not None:
+            res = _lost(str(error) if isinstance(error, CaseLost)
+                        else f"{type(error).__name__}: {error}")
+        c = todo[k]
+        if res["status"] in KEPT:
+            _save_case(folder, c, res)
+        finished(c, _row(c, res))
+        return res["status"], res["seconds"]
 
-            while pending:
-                # the futures' own states, polled: distributed.wait(timeout=2) was seen to
-                # hang for good once workers had been killed in a row (the soak: its
-                # timeout never fired while the event loop sat idle)
-                done = {f for f in pending if f.done()}
-                if not done:
-                    time.sleep(POLL_SECONDS)
-                gathered = False
-                for fut in done:
-                    try:
-                        res = fut.result(timeout=GATHER_SECONDS)
-                    except TimeoutError:  # its worker died before the result came: the
-                        continue          # scheduler computes it again; keep waiting
-                    except Exception as exc:  # noqa: BLE001 - a dead worker (KilledWorker) or any task failure is this case's row
-                        res = _lost(f"{type(exc).__name__}: {exc}")
-                    pending.discard(fut)
-                    # forget the future: a result the cluster still held would be computed
-                    # again when its worker dies (a finished case run twice)
-                    k = futures.pop(fut)
-                    fut.release()
-                    record(k, res)
-                    gathered = True
-                if gathered or not pending or time.monotonic() - looked < 2.0:
-                    continue
-                looked = time.monotonic()  # the scheduler asked every 2 s, not every poll
-                if client.scheduler_info().get("workers"):
-                    alone_since = None
-                    continue
-                alone_since = alone_since or time.monotonic()
-                if time.monotonic() - alone_since > worker_timeout:
-                    for fut in sorted(pending, key=futures.get):
-                        fut.cancel()
-                        record(futures[fut], _lost(
-                            f"the cluster had no worker for {worker_timeout:g} s"))
-                    pending.clear()
-        finally:
-            with contextlib.suppress(Exception):  # a scheduler that is gone keeps nothing
-                client.unregister_worker_plugin(plugin.name)
-            client.close()
-            if cluster is not None:
-                cluster.close()
-
-
-#: seconds between looks at the cases' futures while none has finished
-POLL_SECONDS = 0.2
-
-#: attempts at starting the local cluster (a worker killed while it starts fails the start)
-CLUSTER_STARTS = 3
-
-
-def _local_cluster(LocalCluster, workers: int):
-    """A local cluster of ``workers`` processes; a start that fails (a worker process
-    killed or out of memory as it comes up) is tried again, then named."""
-    for attempt in range(CLUSTER_STARTS):
-        try:
-            return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                dashboard_address=None)
-        except (RuntimeError, OSError, TimeoutError) as exc:
-            logger.warning("the local Dask cluster did not start (%s: %s)%s",
-                           type(exc).__name__, exc,
-                           "; trying again" if attempt + 1 < CLUSTER_STARTS else "")
-            last = exc
-    raise PipelineError(f"the local Dask cluster of {workers} processes did not start in "
-                        f"{CLUSTER_STARTS} attempts ({type(last).__name__}: {last}); "
-                        "check memory and the temporary folder") from None
+    logger.info("study %s: sending its files and reduced links (%.1f MB) to the workers",
+                spec.name, bundle.size / 1e6)
+    run_cases(tasks, title=f"study {spec.name}", record=record, workers=workers,
+              scheduler=scheduler, plugin=BundlePlugin(bundle), worker_timeout=worker_timeout)
 
 
 def _lost(why: str) -> dict:

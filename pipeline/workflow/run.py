@@ -16,14 +16,16 @@ import logging
 import os
 import shutil
 import time
+import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from pipeline.core.atomic import folder_lock, replace_dir
+from pipeline.core.cases import CaseLost, Task, run_cases
 from pipeline.core.errors import ConfigError, PipelineError
-from pipeline.core.progress import TaskBoard, quiet, stage
+from pipeline.core.progress import stage
 from pipeline.invariants.cache import default_links_dir
 from pipeline.workflow.analyses import AnalysisResult, run_analysis
 from pipeline.workflow.build import Machine, build_machine
@@ -147,19 +149,11 @@ def _case_result(wf: Workflow, case_set, label, analysis: str, cache_dir, rebuil
 
 
 def _run_parallel(wf, base, tasks, cache, machines, cache_dir, rebuild, workers, timings):
-    """Analysis cases in ``workers`` processes; machines for the outputs are rebuilt here
-    from the cached reductions (a System holds mapping proxies, which do not pickle). Each
-    case's result is kept as it arrives: a worker that dies (killed, out of memory) costs
-    only the cases it had not finished, which come back failed with the reason. Workers
-    draw no progress (their stderr is this terminal, which shows the table of cases)."""
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
-
+    """Analysis cases on a local cluster of ``workers`` processes (the one case runner,
+    :func:`pipeline.core.cases.run_cases`); machines for the outputs are rebuilt here
+    from the cached reductions (a System holds mapping proxies, which do not pickle)."""
     t0 = time.perf_counter()
-    with stage(f"{wf.name}: {len(tasks)} analysis cases on {workers} processes"), \
-            ProcessPoolExecutor(max_workers=workers, initializer=quiet,
-                                mp_context=multiprocessing.get_context("spawn")) as pool:
-        done = collect_cases(pool, wf, base, tasks, cache_dir, rebuild)
+    done = collect_cases(wf, base, tasks, cache_dir, rebuild, min(workers, len(tasks)))
     timings["analyses (parallel)"] = time.perf_counter() - t0
     results = {}
     for (a, case), r in zip(tasks, done):
@@ -169,47 +163,49 @@ def _run_parallel(wf, base, tasks, cache, machines, cache_dir, rebuild, workers,
     return results
 
 
-def collect_cases(pool, wf, base, tasks, cache_dir, rebuild) -> list[AnalysisResult]:
-    """Submit every (analysis, case) of ``tasks`` to ``pool`` (a concurrent.futures
-    executor) and gather the results in order; a case whose worker died is a failed
-    result naming the cause. An error raised by a case (bad input) is raised here.
+def collect_cases(wf, base, tasks, cache_dir, rebuild, workers: int = 2,
+                  scheduler: str | None = None) -> list[AnalysisResult]:
+    """Run every (analysis, case) of ``tasks`` with the one case runner and gather the
+    results in order. Each case's result is kept as it arrives: a case whose worker died
+    (killed, out of memory) and could not be run again comes back failed, naming the
+    cause, and costs only itself. An error raised by a case (bad input) is raised here,
+    as it was raised in the worker.
 
     Progress: a live table of the cases (queued, running, ok / partial / failed, seconds)
     under the running stage on a terminal; a log line per finished case otherwise."""
-    from concurrent.futures import FIRST_COMPLETED, wait
-    from concurrent.futures.process import BrokenProcessPool
-
-    futures = {pool.submit(_case_result, wf, case.set if case else {},
-                           case.label if case else "", a.name, cache_dir, rebuild): k
-               for k, (a, case) in enumerate(tasks)}
-    board = TaskBoard(f"{a.name}" + (f" / {case.label}" if case else "") for a, case in tasks)
+    run = uuid.uuid4().hex[:12]  # keys unique on a shared scheduler: no result reused
+    jobs = [Task(f"{a.name}" + (f" / {case.label}" if case else ""), _case_result,
+                 (wf, case.set if case else {}, case.label if case else "", a.name,
+                  cache_dir, rebuild), f"{wf.name}-{k}-{run}")
+            for k, (a, case) in enumerate(tasks)]
     done: list = [None] * len(tasks)
-    pending = set(futures)
-    while pending:
-        finished, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
-        now = time.perf_counter()
-        for fut in finished:
-            k = futures[fut]
-            a, case = tasks[k]
-            try:
-                done[k] = fut.result()
-                state = done[k].verdict
-            except BrokenProcessPool:
-                done[k] = lost_case(base, a, case.label if case else "",
-                                    "its worker process died (killed, or out of memory) "
-                                    "before the case finished")
-                logger.warning("%s: analysis %r%s: %s", wf.name, a.name,
-                               f" case {case.label!r}" if case else "", done[k].message)
-                state = "lost"
-            board.finished(k, state, done[k].timings.get(
-                "total", now - (board.began[k] or now)))
-            logger.info("%s: %s: %s in %.1f s (%d of %d cases done)", wf.name,
-                        board.names[k], state, board.took[k], board.n_done, len(tasks))
-        for fut in pending:
-            if fut.running():
-                board.running(futures[fut], now)
-        board.show(now)
+    t_sub = time.perf_counter()
+
+    def record(k: int, value, error) -> tuple[str, float]:
+        a, case = tasks[k]
+        done[k] = case_outcome(wf, base, a, case.label if case else "", value, error)
+        if error is not None:
+            return "lost", time.perf_counter() - t_sub
+        return value.verdict, value.timings.get("total", time.perf_counter() - t_sub)
+
+    run_cases(jobs, title=wf.name, record=record, workers=workers, scheduler=scheduler)
     return done
+
+
+def case_outcome(wf: Workflow, base: Machine, a, label: str, value, error):
+    """The result of case ``label`` of analysis spec ``a`` from what its worker returned
+    (``value``) or raised (``error``): a case lost to the cluster (its workers died,
+    or none was left to run it: :class:`~pipeline.core.cases.CaseLost`) is a failed,
+    empty result naming the cause (logged as a warning); the case's own error (bad input) is raised here as
+    it was raised there."""
+    if error is None:
+        return value
+    if not isinstance(error, CaseLost):
+        raise error
+    why = str(error)
+    logger.warning("%s: analysis %r%s: %s", wf.name, a.name,
+                   f" case {label!r}" if label else "", why)
+    return lost_case(base, a, label, why)
 
 
 def lost_case(base: Machine, a, label: str, why: str) -> AnalysisResult:

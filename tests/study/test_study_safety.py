@@ -104,7 +104,7 @@ def test_a_damaged_table_or_case_file_is_set_aside_and_rerun(tmp_path, links, ca
     # a case file damaged (a zip cut short): only that case runs again
     case = sorted((folder / "cases").glob("*.npz"))[0]
     case.write_bytes(b"PK\x03\x04" + case.read_bytes()[4:][:len(case.read_bytes()) // 2])
-    with caplog.at_level("WARNING", logger="pipeline.study.engine"):
+    with caplog.at_level("WARNING", logger="pipeline.core.cases"):
         again = run_study(study, out_root=out, workers=1, cache_dir=links)
     assert again.ran == 1 and [r["status"] for r in again.rows] == ["ok"] * 3
     assert any("is damaged" in m and case.name in m for m in caplog.messages)
@@ -160,7 +160,7 @@ def test_an_external_cluster_without_workers_ends_its_cases_lost(tmp_path, links
 def test_distributed_tracebacks_are_one_line_without_debug(caplog):
     import logging
 
-    from pipeline.study.engine import _quiet_distributed
+    from pipeline.core.cases import quiet_distributed as _quiet_distributed
 
     log = logging.getLogger("distributed.scheduler")
     handler = logging.StreamHandler()
@@ -198,7 +198,8 @@ def test_a_cluster_that_fails_to_start_is_started_again_then_named(caplog):
     traceback ("Nanny failed to start"); the start is tried again, and after the last
     attempt the study stops with one line."""
     from pipeline.core.errors import PipelineError
-    from pipeline.study.engine import CLUSTER_STARTS, _local_cluster
+    from pipeline.core.cases import CLUSTER_STARTS
+    from pipeline.core.cases import local_cluster as _local_cluster
 
     calls = []
 
@@ -210,7 +211,7 @@ def test_a_cluster_that_fails_to_start_is_started_again_then_named(caplog):
             return "cluster"
         return make
 
-    with caplog.at_level("WARNING", logger="pipeline.study.engine"):
+    with caplog.at_level("WARNING", logger="pipeline.core.cases"):
         assert _local_cluster(flaky(1), 2) == "cluster"
     assert len(calls) == 2 and "trying again" in caplog.text
     calls.clear()

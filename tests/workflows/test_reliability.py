@@ -679,45 +679,29 @@ def test_pipeline_reduce_names_the_spec_line_of_a_failing_interface(tmp_path):
     assert "end_x9" in r.stderr
 
 
-def test_cases_finished_before_a_worker_died_are_kept(tmp_path, caplog):
-    """A worker killed mid-study (BrokenProcessPool) used to throw away every case; the
-    collection keeps what finished and marks the rest failed with the reason."""
-    from concurrent.futures import Future
-    from concurrent.futures.process import BrokenProcessPool
-
+def test_a_case_lost_to_the_cluster_is_a_failed_result_naming_the_cause(tmp_path, caplog):
+    """A worker killed mid-run used to throw away every case; the one case runner hands
+    each case over as it arrives (tests/core/test_cases.py kills a real worker), and a lost
+    case becomes a failed, empty result saying why, while a case's own bad input is raised
+    as it was raised in the worker."""
+    from pipeline.core.cases import CaseLost
     from pipeline.workflow.build import build_machine
-    from pipeline.workflow.run import collect_cases
+    from pipeline.workflow.run import case_outcome
 
     wf = load_workflow(_write(tmp_path))
     base = build_machine(wf, tmp_path / "links")
-    tasks = [(wf.spec.analyses[0], c) for c in wf.spec.analyses[0].cases]
-
-    class DyingPool:
-        """Runs the first case here; the second one's worker 'dies'."""
-
-        def __init__(self):
-            self.n = 0
-
-        def submit(self, fn, *args):
-            fut = Future()
-            if self.n == 0:
-                fut.set_result(fn(*args))
-            else:
-                fut.set_exception(BrokenProcessPool("A process in the pool was terminated"))
-            self.n += 1
-            return fut
-
-    with caplog.at_level(logging.INFO, logger="pipeline.workflow.run"):
-        slow, fast = collect_cases(DyingPool(), wf, base, tasks, tmp_path / "links", False)
-    assert slow.success and slow.case == "slow" and len(slow.t) == 73
+    a = wf.spec.analyses[0]
+    why = "its worker process died (killed, or out of memory) before the case finished"
+    with caplog.at_level(logging.WARNING, logger="pipeline.workflow.run"):
+        fast = case_outcome(wf, base, a, "fast", None, CaseLost(why))
     assert not fast.success and fast.case == "fast" and fast.verdict == "partial"
-    assert "worker process died" in fast.message and len(fast.t) == 0
-    # progress off a terminal: one line per finished case, with its state and the count
-    done = [r.getMessage() for r in caplog.records if "cases done" in r.getMessage()]
-    assert len(done) == 2
-    assert any("turn / slow: ok in" in m for m in done)
-    assert any("turn / fast: lost in" in m for m in done)
-    assert done[-1].endswith("(2 of 2 cases done)")
+    assert fast.message == why and len(fast.t) == 0 and fast.q.shape == (0, base.mechanism.n)
+    assert "analysis 'turn' case 'fast': its worker process died" in caplog.text
+    bad = ConfigError(f"{wf.path}:3: analyses[0].t_end: expected a number")
+    with pytest.raises(ConfigError) as exc:
+        case_outcome(wf, base, a, "slow", None, bad)
+    assert exc.value is bad
+    assert case_outcome(wf, base, a, "slow", "the result", None) == "the result"
 
 
 def test_task_table_shows_each_case_state_and_seconds():
