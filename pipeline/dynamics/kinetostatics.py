@@ -57,7 +57,7 @@ from pipeline.kinematics import (
 )
 from pipeline.kinematics.failures import ClosureError, SingularConfigurationError
 from pipeline.kinematics.partition import select_partition
-from pipeline.kinematics.poses import step_local
+from pipeline.kinematics.poses import step_pose
 
 __all__ = ["JointReactions", "KinetostaticResult", "joint_reactions", "kinetostatics"]
 
@@ -255,7 +255,7 @@ def _joint_axes(system, tree, q, j):
     mech = system.mechanism
     joint, jidx = mech.joints[j], mech.joint_index[j]
     step = mech.marker(joint.parent, joint.parent_frame)
-    Pp = tree.A[step.frm] @ step_local(step, q, None, need_d=False)[0]
+    Pp = step_pose(step, tree.A, q)
     Pc = Pp @ joint.kind.motion.transform(q[jidx])
     dP = Pp @ joint.kind.motion.derivatives(q[jidx]) if jidx.size else np.zeros((0, 4, 4))
     xi = np.array([np.concatenate([d[:3, 3], _vee(d[:3, :3] @ Pc[:3, :3].T)]) for d in dP])

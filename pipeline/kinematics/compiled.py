@@ -36,7 +36,8 @@ from numba import njit
 
 from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
 
-__all__ = ["CompiledMechanism", "Evaluation", "compile_mechanism", "evaluate"]
+__all__ = ["CompiledMechanism", "CompiledSteps", "Evaluation", "StepValues", "compile_mechanism",
+           "compile_steps", "evaluate", "step_values"]
 
 
 @dataclass(frozen=True)
@@ -104,9 +105,38 @@ class Evaluation:
     gamma: np.ndarray | None
 
 
-def compile_mechanism(mech) -> CompiledMechanism:
-    """Flatten ``mech.table`` (a :class:`pipeline.kinematics.mechanism.Mechanism`)."""
-    steps = mech.table.steps
+@dataclass(frozen=True)
+class CompiledSteps:
+    """Flat arrays of some steps (the arrays of :class:`CompiledMechanism` that describe
+    steps, same meaning): the form a marker, a force element's point or a joint's frame is
+    evaluated in (:func:`step_values`)."""
+
+    frm: np.ndarray
+    n_modes: np.ndarray
+    eta: np.ndarray
+    pose: np.ndarray
+    dS: np.ndarray
+    n_motions: np.ndarray
+    kind: np.ndarray
+    gen: np.ndarray
+    gen2: np.ndarray
+    qi: np.ndarray
+    tail: np.ndarray
+    fast: np.ndarray
+    fastC: np.ndarray
+    fastq: np.ndarray
+    second: np.ndarray
+    hess: np.ndarray
+
+    def arrays(self) -> tuple:
+        """The arrays in the order of :func:`_values_kernel`'s arguments."""
+        return (self.frm, self.n_modes, self.eta, self.pose, self.dS, self.n_motions,
+                self.kind, self.gen, self.gen2, self.qi, self.tail, self.fast, self.fastC,
+                self.fastq, self.second, self.hess)
+
+
+def compile_steps(steps) -> CompiledSteps:
+    """Flatten a sequence of :class:`pipeline.kinematics.mechanism.Step`."""
     S = len(steps)
     MM = max([1] + [st.frame.n_modes for st in steps])
     KK = max([1] + [st.motion.n if st.motion is not None else 0 for st in steps])
@@ -122,6 +152,10 @@ def compile_mechanism(mech) -> CompiledMechanism:
     tail = np.tile(np.eye(4), (S, 1, 1))
     second = np.array([st.frame.hess is not None for st in steps], dtype=np.bool_).reshape(S)
     hess = np.zeros((S, MM, MM, 3) if second.any() else (1, 1, 1, 3))
+    fast = np.full(S, -1, dtype=np.int64)
+    fastC = np.zeros((S, 3, 4, 4))
+    fastq = np.zeros(S, dtype=np.int64)
+    codes = {"R": 0, "T": 1, "fixed": 2}
     for s, st in enumerate(steps):
         m = st.frame.n_modes
         n_modes[s] = m
@@ -138,6 +172,20 @@ def compile_mechanism(mech) -> CompiledMechanism:
             qi[s, :k] = [st.q_idx[v] for v in st.motion.var]
         if st.tail is not None:
             tail[s] = st.tail
+        if st.fast is not None:
+            fast[s] = codes[st.fast[0]]
+            for k in range(3):
+                if st.fast[1 + k] is not None:
+                    fastC[s, k] = st.fast[1 + k]
+            fastq[s] = max(st.fast[4], 0)
+    return CompiledSteps(frm, n_modes, eta, pose, dS, n_motions, kind, gen, gen @ gen, qi,
+                         tail, fast, fastC, fastq, second, hess)
+
+
+def compile_mechanism(mech) -> CompiledMechanism:
+    """Flatten ``mech.table`` (a :class:`pipeline.kinematics.mechanism.Mechanism`)."""
+    steps = mech.table.steps
+    cs = compile_steps(steps)
     order = np.array(mech.placement[1:], dtype=np.int64)
     slot = np.array(mech.table.tree_slot, dtype=np.int64)
     loops = np.array(mech.table.loop_slot, dtype=np.int64).reshape(-1, 2)
@@ -151,20 +199,41 @@ def compile_mechanism(mech) -> CompiledMechanism:
         for s in pair:
             loop_depends[kk] |= depends[steps[s].frm]
             loop_depends[kk, steps[s].local] = True
-    fast = np.full(S, -1, dtype=np.int64)
-    fastC = np.zeros((S, 3, 4, 4))
-    fastq = np.zeros(S, dtype=np.int64)
-    codes = {"R": 0, "T": 1, "fixed": 2}
-    for s, st in enumerate(steps):
-        if st.fast is not None:
-            fast[s] = codes[st.fast[0]]
-            for k in range(3):
-                if st.fast[1 + k] is not None:
-                    fastC[s, k] = st.fast[1 + k]
-            fastq[s] = max(st.fast[4], 0)
-    return CompiledMechanism(mech.n, len(mech.links), int(mech.placement[0]), frm, n_modes, eta,
-                             pose, dS, n_motions, kind, gen, gen @ gen, qi, tail, order, slot,
-                             loops, depends, loop_depends, fast, fastC, fastq, second, hess)
+    return CompiledMechanism(mech.n, len(mech.links), int(mech.placement[0]), cs.frm,
+                             cs.n_modes, cs.eta, cs.pose, cs.dS, cs.n_motions, cs.kind, cs.gen,
+                             cs.gen2, cs.qi, cs.tail, order, slot, loops, depends,
+                             loop_depends, cs.fast, cs.fastC, cs.fastq, cs.second, cs.hess)
+
+
+@dataclass(frozen=True)
+class StepValues:
+    """Global poses P = A_frm M of some steps' ends and their derivatives: P (S, 4, 4);
+    dP (S, n, 4, 4) dP/dq, or None; Pd, Pdd (S, 4, 4) P' and P''|q''=0, or None."""
+
+    P: np.ndarray
+    dP: np.ndarray | None
+    Pd: np.ndarray | None
+    Pdd: np.ndarray | None
+
+
+def step_values(cs: CompiledSteps, q: np.ndarray, A: np.ndarray, dA: np.ndarray | None = None,
+                Ad: np.ndarray | None = None, Add: np.ndarray | None = None,
+                qd: np.ndarray | None = None) -> StepValues:
+    """Poses of the ends of the steps ``cs`` from the link poses A (L, 4, 4) at q (n,):
+    with dA (L, n, 4, 4) also dP/dq; with qd (n,), Ad and Add (L, 4, 4) also P', P''."""
+    q = np.ascontiguousarray(q, dtype=float)
+    n, L = q.shape[0], A.shape[0]
+    need_d = dA is not None
+    rates = qd is not None
+    none = np.zeros((L, 4, 4))
+    P, dP, Pd, Pdd = _values_kernel(
+        q, np.ascontiguousarray(qd, dtype=float) if rates else np.zeros(n), rates, need_d,
+        np.ascontiguousarray(A, dtype=float),
+        np.ascontiguousarray(dA, dtype=float) if need_d else np.zeros((L, n, 4, 4)),
+        np.ascontiguousarray(Ad, dtype=float) if rates else none,
+        np.ascontiguousarray(Add, dtype=float) if rates else none, *cs.arrays())
+    return StepValues(P, dP if need_d else None, Pd if rates else None,
+                      Pdd if rates else None)
 
 
 def evaluate(cm: CompiledMechanism, q: np.ndarray, qd: np.ndarray | None = None) -> Evaluation:
@@ -466,3 +535,40 @@ def _kernel(q, qd, rates, L, root, frm, n_modes, eta, pose, dS, n_motions, kind,
             _abt_add(P[1], Pdd[0], 1.0, E)
             _vee_into(E, g, o + 3, -1.0)
     return A, dA, Ad, Add, r, J, g
+
+
+@njit(cache=True)
+def _values_kernel(q, qd, rates, need_d, A, dA, Ad, Add, frm, n_modes, eta, pose, dS,
+                   n_motions, kind, gen, gen2, qi, tail, fast, fastC, fastq, second, hess):
+    """P, dP, Pd, Pdd of each step (see :func:`step_values`); the same local evaluation
+    (:func:`_step`, :func:`_fast_step`) and placement (:func:`_place`) as the tree's."""
+    n = q.shape[0]
+    S = frm.shape[0]
+    MM = dS.shape[1]
+    KK = gen.shape[1]
+    P = np.zeros((S, 4, 4))
+    dP = np.zeros((S if need_d else 0, n, 4, 4))
+    Pd = np.zeros((S, 4, 4))
+    Pdd = np.zeros((S, 4, 4))
+    depends = np.full((A.shape[0], n), need_d)  # no dA products for a pose alone
+    M = np.zeros((4, 4))
+    dMe = np.zeros((MM, 4, 4))
+    dMx = np.zeros((KK, 4, 4))
+    Md = np.zeros((4, 4))
+    Mdd = np.zeros((4, 4))
+    F = np.zeros((KK, 4, 4))
+    Pw = np.zeros((KK + 1, 4, 4))
+    Tw = np.zeros((KK + 1, 4, 4))
+    w4 = np.zeros((11, 4, 4))
+    hv = np.zeros((MM, 3))
+    dPs = np.zeros((n, 4, 4))
+    for s in range(S):
+        if fast[s] >= 0:
+            _fast_step(s, q, qd, rates, fast, fastC, fastq, M, dMx[0], Md, Mdd)
+        else:
+            _step(s, q, qd, rates, n_modes, eta, pose, dS, n_motions, kind, gen, gen2, qi,
+                  tail, second, hess, M, dMe, dMx, Md, Mdd, F, Pw, Tw, w4[0], w4[1], w4[2],
+                  w4[3], w4[4], w4[5], w4[6], w4[7], w4[8], w4[9], w4[10], hv)
+        _place(frm[s], s, A, dA, Ad, Add, rates, n_modes, eta, n_motions, qi, M, dMe, dMx,
+               Md, Mdd, P[s], dP[s] if need_d else dPs, Pd[s], Pdd[s], depends)
+    return P, dP, Pd, Pdd

@@ -89,6 +89,13 @@ class Step:
                         self.frame.pose @ G @ G @ tail, int(self.q_idx[0]))
         object.__setattr__(self, "fast", fast)
 
+    @cached_property  # a marker's step is built once per mechanism and evaluated often
+    def compiled(self):
+        """This step alone as a :class:`pipeline.kinematics.compiled.CompiledSteps`."""
+        from pipeline.kinematics.compiled import compile_steps
+
+        return compile_steps([self])
+
 
 @dataclass(frozen=True)
 class StepTable:

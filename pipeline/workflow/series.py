@@ -37,7 +37,7 @@ import numpy as np
 from pipeline.core.errors import ConfigError
 from pipeline.fem.stress import RESULTANTS, VOIGT, principal_stresses, von_mises
 from pipeline.kinematics import evaluate_tree
-from pipeline.kinematics.poses import step_local
+from pipeline.kinematics.poses import step_pose
 
 KINDS = ("time", "q", "qd", "qdd", "marker", "deflection", "energy", "driver_force",
          "reaction", "stress", "frequency", "state")
@@ -77,12 +77,11 @@ def marker_positions(mech, q: np.ndarray, link: str, frame: str, elastic_only: b
     out = np.empty((q.shape[0], 3))
     for k, qk in enumerate(q):
         poses = evaluate_tree(mech, qk, derivatives=False).A
-        A = poses[step.frm]
-        p = (A @ step_local(step, qk, None, need_d=False)[0])[:3, 3]
+        p = step_pose(step, poses, qk)[:3, 3]
         if elastic_only:
             q0 = qk.copy()
             q0[mech.modal_index[li]] = 0.0
-            p = p - (A @ step_local(step, q0, None, need_d=False)[0])[:3, 3]
+            p = p - step_pose(step, poses, q0)[:3, 3]
         if ai is not None:
             B = poses[ai]
             p = B[:3, :3].T @ (p if elastic_only else p - B[:3, 3])

@@ -9,16 +9,97 @@ compiled; these are kept here, outside it, to test it against.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from pipeline.kinematics.mechanism import Mechanism
-from pipeline.kinematics.poses import step_local
+from pipeline.kinematics.mechanism import Mechanism, Step
 
 _I4 = np.eye(4)
 _I = ([2, 0, 1], [1, 2, 0])  # vee(E) = (E[I] - E[I^T]) / 2
 _IT = ([1, 2, 0], [2, 0, 1])
+_Z4 = np.zeros((4, 4))
+_NO_D = np.zeros((0, 4, 4))
+for _a in (_Z4, _NO_D):
+    _a.setflags(write=False)
+
+
+def _fast_local(fast, q, qd, need_d):
+    """Closed-form M, dM, M', M'' of a rigid one-motion step (see ``Step.fast``)."""
+    kind, C0, C1, C2, i = fast
+    if kind == "fixed":
+        return C0, _NO_D, (None if qd is None else _Z4), (None if qd is None else _Z4)
+    x = q[i]
+    if kind == "T":
+        M, dM0, Mdd = C0 + x * C1, C1, _Z4
+    else:
+        c, s = math.cos(x), math.sin(x)
+        M = C0 + s * C1 + (1.0 - c) * C2
+        dM0 = c * C1 + s * C2
+        Mdd = None if qd is None else (qd[i] * qd[i]) * (c * C2 - s * C1)
+    return M, (dM0[None] if need_d else None), (None if qd is None else qd[i] * dM0), Mdd
+
+
+def step_local(step: Step, q: np.ndarray, qd: np.ndarray | None = None, need_d: bool = True):
+    """Local matrix M (4, 4), dM/dq_local (k, 4, 4), M' and M''|q''=0 of a step."""
+    if step.fast is not None:
+        return _fast_local(step.fast, q, qd, need_d)
+    fr = step.frame
+    eta = q[step.eta_idx] if fr.n_modes else None
+    S = fr.shape(eta) if fr.n_modes else fr.pose
+    dS = fr.shape_derivatives(eta) if fr.n_modes else None
+    tail = step.tail
+    if step.motion is not None:
+        G, dG, Gd, Gdd = step.motion.evaluate(q[step.q_idx], None if qd is None else qd[step.q_idx])
+    else:
+        G, dG, Gd, Gdd = _I4, None, _Z4, _Z4
+    SG = S @ G
+    M = SG if tail is None else SG @ tail
+    dM = Md = Mdd = None
+    if need_d:
+        parts = []
+        if fr.n_modes:
+            parts.append(dS @ G)
+        if dG is not None:
+            parts.append(S @ dG)
+        dM = np.concatenate(parts) if len(parts) > 1 else parts[0] if parts else np.zeros((0, 4, 4))
+        if tail is not None:
+            dM = dM @ tail
+    if qd is not None:
+        if fr.n_modes:
+            Sd = (qd[step.eta_idx] @ dS.reshape(fr.n_modes, 16)).reshape(4, 4)
+            Md = Sd @ G + S @ Gd
+            Mdd = 2.0 * Sd @ Gd + S @ Gdd
+            Sdd = fr.shape_acceleration(qd[step.eta_idx])
+            if Sdd is not None:  # a second-order frame: S'' = eta'^T H eta'
+                Mdd = Mdd + Sdd @ G
+        else:
+            Md, Mdd = S @ Gd, S @ Gdd
+        if tail is not None:
+            Md, Mdd = Md @ tail, Mdd @ tail
+    return M, dM, Md, Mdd
+
+
+def step_value(step: Step, A, dA, Ad, Add, q, qd=None, need_d=True) -> tuple:
+    """P, dP, Pd, Pdd of a step's end from the state of its base link (all (L, ...)
+    arrays): the oracle of :func:`pipeline.kinematics.poses.step_value`."""
+    f = step.frm
+    M, dM, Md, Mdd = step_local(step, q, qd, need_d)
+    Af = A[f]
+    P = Af @ M
+    dP = None
+    if need_d:
+        dP = dA[f] @ M
+        if step.fast is not None and step.fast[4] >= 0:  # one local coordinate
+            dP[step.fast[4]] += Af @ dM[0]
+        elif len(step.local):
+            dP[step.local] += Af @ dM
+    Pd = Pdd = None
+    if qd is not None:
+        Pd = Ad[f] @ M + Af @ Md
+        Pdd = Add[f] @ M + 2.0 * Ad[f] @ Md + Af @ Mdd
+    return P, dP, Pd, Pdd
 
 
 @dataclass(frozen=True)

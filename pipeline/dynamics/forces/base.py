@@ -53,7 +53,7 @@ from typing import ClassVar
 import numpy as np
 
 from pipeline.core.errors import ConfigError
-from pipeline.kinematics.poses import step_local, step_value
+from pipeline.kinematics.poses import step_pose, step_value
 
 __all__ = ["ForceElement", "LineElement", "Load", "MarkerPoint", "check_coordinate",
            "check_marker", "element_forces", "marker_point", "marker_pose", "marker_twist",
@@ -100,7 +100,7 @@ def point_load(link: str, point, force) -> Load:
 def marker_pose(system, link: str, frame: str, tree, q: np.ndarray) -> np.ndarray:
     """(4, 4) global pose of marker ``frame`` on ``link`` (A_link S_frame(eta))."""
     step = system.mechanism.marker(link, frame)
-    return tree.A[step.frm] @ step_local(step, q, None, need_d=False)[0]
+    return step_pose(step, tree.A, q)
 
 
 def marker_point(system, link: str, frame: str, tree, q: np.ndarray,
