@@ -30,17 +30,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from pipeline.dynamics.compiled import closed_state as _closed_state
+from pipeline.dynamics.compiled import reduced_solve as _reduced_solve
 from pipeline.dynamics.equations import EquationTerms, equation_terms
 from pipeline.kinematics.analysis import solve_position, velocity_map
 from pipeline.kinematics.closure import closure, closure_rates
 from pipeline.kinematics.partition import Partition, normalised_jacobian, select_partition
 from pipeline.kinematics.poses import TreeState
-
-try:  # the fused compiled pass (numba); the code below is the reference and the fallback
-    from pipeline.dynamics.compiled import closed_state as _closed_state
-    from pipeline.dynamics.compiled import reduced_solve as _reduced_solve
-except ImportError:  # pragma: no cover - numba is a dependency
-    _closed_state = _reduced_solve = None
 
 __all__ = ["DynamicPartition", "ReducedState", "complete_position", "driver_state",
            "partition_system", "reduced_state", "repartition", "velocity_transform"]
@@ -202,49 +198,53 @@ def reduced_state(system, part: DynamicPartition, q_I: np.ndarray, qd_I: np.ndar
     """
     mech = system.mechanism
     values, rates, accels = driver_state(part, t) if drive is None else drive
-    if _closed_state is not None and part.has_loops and part.kin.dependent.size:
+    if part.has_loops and part.kin.dependent.size:
         st = _compiled_state(system, part, q_I, qd_I, t, q_guess, values, rates, accels)
-        if st is not None:
-            return st
+        if st is None:  # the plain Newton from the guess did not converge fast: the damped,
+            # least-squares-backed position analysis closes the loops, the same pass from there
+            q, _ = _close(system, part, q_I, t, q_guess, 1e-12, values)
+            st = _compiled_state(system, part, q_I, qd_I, t, q, values, rates, accels,
+                                 strict=True)
+        return st
+    # a tree, or loops whose rows the driven and modal coordinates fill: q' = B q'_I + b
+    # with B a selection, no closure to solve
     q, cv = _close(system, part, q_I, t, q_guess, 1e-12, values)
     B, Bp, b = velocity_transform(system, part, None if cv is None else cv.J, t, rates)
     qd = B @ qd_I + b
     c = np.zeros(mech.n)
     c[part.driven] = accels
     tree, residual = None, np.zeros(0)
-    dep = part.kin.dependent
     if cv is not None:
         cg = closure_rates(mech, cv, q, qd)
         tree, residual = cg.tree, cv.r
-        if dep.size:
-            R = cv.J[part.kin.rows]
-            c[dep] = np.linalg.solve(R[:, dep], cg.gamma[part.kin.rows] - R @ c)
     terms = equation_terms(system, q, qd, t, tree=tree)
     return _solve_reduced(q, qd, B, Bp, c, terms, residual, None if cv is None else cv.J)
 
 
 def _solve_reduced(q, qd, B, Bp, c, terms, residual, J) -> ReducedState:
-    """(B^T M B) q''_I = B^T (rhs - M c), q'' = B q''_I + c and the driver forces."""
+    """(B^T M B) q''_I = B^T (rhs - M c), q'' = B q''_I + c and the driver forces, compiled
+    (:func:`pipeline.dynamics.compiled.reduced_solve`); non-finite terms (a trial state far
+    off, which numba's solve refuses) give non-finite accelerations, for the integrator to
+    reject the step."""
     M, rhs = terms.M, terms.rhs
-    if _reduced_solve is not None and B.shape[1]:
+    if not B.shape[1]:
+        qdd_I, qdd, lam = np.zeros(0), c.copy(), Bp.T @ (M @ c - rhs)
+    else:
         try:
             qdd_I, qdd, lam = _reduced_solve(np.ascontiguousarray(B), np.ascontiguousarray(Bp),
                                              M, rhs, c)
-            return ReducedState(q, qd, qdd, qdd_I, B, terms, lam, residual, Bp, J)
-        except ValueError:  # non-finite terms (numba refuses them): numpy propagates the NaN
-            pass
-    qdd_I = np.linalg.solve(B.T @ M @ B, B.T @ (rhs - M @ c))
-    qdd = B @ qdd_I + c
-    # driver forces: the drivers' generalized reactions, B_p^T (M q'' - rhs)
-    lam = Bp.T @ (M @ qdd - rhs)
+        except ValueError:  # non-finite entries
+            qdd_I = np.full(B.shape[1], np.nan)
+            qdd, lam = np.full(q.shape[0], np.nan), np.full(Bp.shape[1], np.nan)
     return ReducedState(q, qd, qdd, qdd_I, B, terms, lam, residual, Bp, J)
 
 
 def _compiled_state(system, part: DynamicPartition, q_I, qd_I, t, q_guess, values, rates,
-                    accels) -> ReducedState | None:
+                    accels, strict: bool = False) -> ReducedState | None:
     """:func:`reduced_state` by the fused compiled pass (plain Newton from q_guess); None
     when that Newton does not converge or its block is singular, so that the caller runs
-    the damped, least-squares-backed position analysis instead."""
+    the damped, least-squares-backed position analysis instead. ``strict`` (q_guess closed
+    by that analysis): a singular block raises LinAlgError, as a singular position does."""
     mech = system.mechanism
     I, P, kin = part.independent, part.driven, part.kin
     q0 = np.array(q_guess, dtype=float)
@@ -257,8 +257,13 @@ def _compiled_state(system, part: DynamicPartition, q_I, qd_I, t, q_guess, value
                             np.concatenate([np.zeros(nI), accels]), mech.row_weights,
                             1e-12, system.gravity4)
     except (np.linalg.LinAlgError, ValueError):  # singular block, non-finite entries
+        if strict:
+            raise
         return None
     if out is None:
+        if strict:  # a closed start that a Newton step from it leaves open: singular here
+            raise np.linalg.LinAlgError("the loops' dependent block is singular at the "
+                                        "closed configuration")
         return None
     q, r, J, X, qd, c, A, dA, Ad, Add, M, h, Qg = out
     B, Bp = X[:, :nI], X[:, nI:]

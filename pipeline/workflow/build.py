@@ -363,14 +363,28 @@ def _pid(wf: Workflow, mech, spec: dict, path: tuple):
     if isinstance(kw["reference"], dict):
         kw["reference"] = driver_from_dict(kw["reference"], wf.where(*path, "pid", "reference"),
                                            wf.base_dir)
-    if kw.get("measured", "stroke") not in ("stroke", "p_a", "p_b"):
-        _coordinate(wf, mech, str(kw["measured"]), *path, "pid", "measured")
+    measured = str(kw.get("measured", "stroke"))
+    if measured.startswith("marker:"):
+        _measured_marker(wf, mech, measured, (*path, "pid", "measured"))
+    elif measured not in ("stroke", "p_a", "p_b"):
+        _coordinate(wf, mech, measured, *path, "pid", "measured")
     if isinstance(kw.get("output_limits"), list):
         kw["output_limits"] = tuple(kw["output_limits"])
     try:
         return PID(**kw)
     except ConfigError as exc:
         raise wf.error(*path, "pid", msg=str(exc)) from None
+
+
+def _measured_marker(wf: Workflow, mech, measured: str, path: tuple) -> None:
+    """A controller's "marker:link.frame:x|y|z": its link and frame must exist."""
+    from pipeline.dynamics.forces.hydraulics import marker_measurement
+
+    try:
+        link, frame, _ = marker_measurement(measured)
+        mech.links[mech.link_index(link)].frame(frame)
+    except ConfigError as exc:
+        raise wf.error(*path, msg=str(exc)) from None
 
 
 def _marker_distance(mech, q, a, b) -> float:

@@ -221,3 +221,83 @@ def test_a_controller_on_an_unknown_coordinate_is_refused_naming_the_cylinder():
     with pytest.raises(ConfigError, match="force element 'lift': command: measured"):
         cyl.validate(system)
     assert isinstance(system, System)
+
+
+def test_a_controller_on_a_marker_position_is_the_one_on_its_coordinate():
+    """The lift's mass moves its body origin along ground z by its slide coordinate:
+    measuring the marker's z or the coordinate runs the same machine."""
+    pid = PID(SmoothStep(0.0, 0.2, S0, S0 + 0.04), kp=20.0, ki=20.0, kd=0.3)
+    te = np.linspace(0.0, 0.4, 21)
+    a = _run(_lift(replace(pid, measured="slide.d"))[0], te, 1e-3)
+    b = _run(_lift(replace(pid, measured="marker:mass.body:z"))[0], te, 1e-3)
+    assert a.verdict == b.verdict and a.success and b.success
+    assert np.abs(a.q - b.q).max() < 1e-12 and np.abs(a.states - b.states).max() < 1e-4
+
+
+def _arm(pid, L=2.0):
+    """A 50 kg arm on a pivot (about z, gravity -y) lifted by a cylinder from a ground
+    mount (0.8, -0.6) to the arm's eye 0.8 m out; its tip L m out is at height
+    L sin(theta)."""
+    from pipeline.dynamics import BodyMass
+    from pipeline.dynamics.forces.hydraulics import HydraulicCylinder
+    from pipeline.kinematics import Joint, build_mechanism, rigid_link
+    from pipeline.kinematics.rotations import translation
+
+    mech = build_mechanism(
+        [rigid_link("ground", {"mount": translation([0.8, -0.6, 0.0])}),
+         rigid_link("arm", {"eye": translation([0.8, 0.0, 0.0]),
+                            "tip": translation([L, 0.0, 0.0])})],
+        [Joint("pivot", "revolute", "ground", "body", "arm", "body", q0=[0.2])])
+    cyl = HydraulicCylinder("lift", ("ground", "mount"), ("arm", "eye"), bore=0.08,
+                            rod=0.04, stroke=0.8, length_retracted=0.4,
+                            supply_pressure=PS, nominal_flow=QNOM, nominal_drop=DPNOM,
+                            command=pid, bulk_modulus=BETA, laminar_drop=DPL,
+                            initial_pressures=(PA0, PB0))
+    return System(mech, {"arm": BodyMass.rigid(50.0, [1.0, 0, 0], np.eye(3))},
+                  gravity=[0, -G, 0], forces=(cyl,))
+
+
+def test_a_controller_on_a_marker_reads_its_height_and_rate_in_closed_form():
+    """On the pivoting arm the tip's height is L sin(theta) and its rate L cos(theta)
+    theta': with the output clipped, the integral term's rate k_i e + (u - v) / T_t
+    carries both (v = k_p e + x_i - k_d y'); compiled and numpy rates agree."""
+    from pipeline.solver import dae_kernels as K
+    from pipeline.solver.dae_data import compile_dae, force_factors
+
+    L, ref, kp, ki, kd, tt = 2.0, 0.5, 3.0, 2.0, 0.7, 0.05
+    pid = PID(ref, kp=kp, ki=ki, kd=kd, measured="marker:arm.tip:y",
+              output_limits=(-0.4, 0.4), tracking_time=tt)
+    system = _arm(pid, L)
+    data = compile_dae(system, np.arange(1), np.zeros(0, dtype=int))
+    args = (K.kin_tuple(data.kin), K.mass_tuple(data.masses), data.K, data.D,
+            data.gravity4, data.w, data.forces)
+    clipped = 0
+    for th, w, xi in ((0.3, 0.5, 0.1), (-0.1, -1.0, 0.9), (0.6, 0.0, -0.3), (0.25, 0.2, 0.0)):
+        q, qd, z = np.array([th]), np.array([w]), np.array([PA0, PB0, xi])
+        zd = K.terms(q, qd, z, force_factors(data, [0.0])[0], *args)[6]
+        e = ref - L * np.sin(th)
+        v = kp * e + xi - kd * L * np.cos(th) * w
+        u = min(max(v, -0.4), 0.4)
+        clipped += u != v
+        assert zd[2] == pytest.approx(ki * e + (u - v) / tt, rel=1e-12, abs=1e-12)
+        assert np.abs(zd - state_rates(system, q, qd, 0.0, z)).max() <= 1e-9 * np.abs(zd).max()
+    assert 0 < clipped < 4  # both sides of the limit were looked at
+
+
+@pytest.mark.parametrize("measured, match", [
+    ("marker:arm.tip:w", "expected 'marker:link.frame:x'"),
+    ("marker:armtip:y", "expected 'marker:link.frame:x'"),
+])
+def test_a_malformed_marker_measurement_is_refused(measured, match):
+    with pytest.raises(ConfigError, match=match):
+        PID(0.5, kp=1.0, measured=measured)
+
+
+@pytest.mark.parametrize("measured, match", [
+    ("marker:boom.tip:y", "link 'boom' does not exist"),
+    ("marker:arm.nose:y", "frame 'nose' does not exist"),
+])
+def test_a_controller_on_an_unknown_marker_is_refused_naming_the_cylinder(measured, match):
+    system = _arm(PID(0.5, kp=1.0, measured=measured))
+    with pytest.raises(ConfigError, match=f"force element 'lift': command: measured: .*{match}"):
+        system.forces[0].validate(system)

@@ -169,10 +169,22 @@ def test_a_pid_commanded_cylinder_runs_as_the_python_api_does(tmp_path):
     (PID_COMMAND.replace("        kp: 20.0\n", ""), r"forces\[0\]\.command\.pid: missing field 'kp'"),
     (PID_COMMAND.replace("slide.d", "p_a"),
      r"forces\[0\]\.command\.pid: PID: kd: a loop on the pressure p_a has no derivative"),
+    (PID_COMMAND.replace("slide.d", "marker:mass.nose:z"),
+     r"forces\[0\]\.command\.pid\.measured: link 'mass': frame 'nose' does not exist"),
+    (PID_COMMAND.replace("slide.d", "marker:mass.body:up"),
+     r"forces\[0\]\.command\.pid\.measured: PID: measured: expected 'marker:link\.frame:x'"),
 ])
 def test_a_bad_pid_is_named_at_its_line(tmp_path, command, match):
     with pytest.raises(ConfigError, match=r"lift\.yaml:\d+: " + match):
         run_workflow(_write(tmp_path, _with_pid(command=command)), out_root=tmp_path / "out")
+
+
+def test_a_pid_on_a_marker_runs_as_the_one_on_its_coordinate(tmp_path):
+    """The lift's mass moves its body origin along ground z by its slide coordinate."""
+    text = _with_pid(command=PID_COMMAND.replace("slide.d", "marker:mass.body:z"))
+    r = run_workflow(_write(tmp_path, text), out_root=tmp_path / "a", outputs=False)
+    ref = run_workflow(_write(tmp_path, _with_pid()), out_root=tmp_path / "b", outputs=False)
+    assert np.abs(r.result("raise", "").q - ref.result("raise", "").q).max() < 1e-12
 
 
 def test_a_pid_may_measure_a_chamber_pressure(tmp_path):

@@ -47,8 +47,9 @@ the machine (the ``dissipated`` entry, with its sign: negative where the cylinde
 
 The command may come from a controller on the cylinder (``command=PID(...)``): a PID
 law with output limits and anti-windup by back-calculation (Astrom & Hagglund) on the
-cylinder's own stroke, on a joint coordinate or on one of its chamber pressures
-(``measured``; a pressure loop has no derivative term),
+cylinder's own stroke, on a joint coordinate, on a marker's position in ground axes (a
+bucket's height, a boom tip's reach: "marker:link.frame:x|y|z", its rate from dP/dq q')
+or on one of its chamber pressures (``measured``; a pressure loop has no derivative term),
 
     e = r(t) - y,   v = k_ff r'(t) + k_p e + x_i - k_d y',   u = clip(v, u_min, u_max),
     x_i' = k_i e + (u - v) / T_t,
@@ -80,9 +81,10 @@ from numba import njit
 from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
 from pipeline.core.errors import ConfigError
 from pipeline.dynamics.forces.base import LineElement
-from pipeline.dynamics.forces.markers import line_geometry
+from pipeline.dynamics.forces.markers import line_geometry, marker_point
 
-__all__ = ["PID", "HydraulicCylinder", "cylinder_force", "cylinder_rates", "pid_law"]
+__all__ = ["PID", "HydraulicCylinder", "cylinder_force", "cylinder_rates",
+           "marker_measurement", "pid_law"]
 
 #: bar: the scale of a pressure state (Newton's and the error estimate's units)
 PRESSURE_UNIT = 1e5
@@ -92,7 +94,30 @@ PRESSURES = ("p_a", "p_b")
 # par columns of the packed element
 _AA, _AB, _L0, _STROKE, _VA0, _VB0, _BETA, _PS, _PT, _KV, _DPL, _LEAK, _VISC, _COUL, _VS, \
     _QP, _PR, _KR, _VS0, _SPOOL, _TAU, _WV, _ZV, _OVL, _KE, _CE, \
-    _PID, _KP, _KI, _KD, _UMIN, _UMAX, _TT, _MEAS, _KFF = range(35)
+    _PID, _KP, _KI, _KD, _UMIN, _UMAX, _TT, _MEAS, _KFF, _MMK, _MCOMP = range(37)
+#: _MEAS of a controller on a marker's position (its point _MMK, its component _MCOMP)
+_ON_MARKER = -4
+#: the components of a measured marker position
+AXES = ("x", "y", "z")
+
+
+def marker_measurement(measured: str) -> tuple[str, str, int] | None:
+    """(link, frame, axis 0..2) of a ``measured`` "marker:link.frame:x|y|z", None for any
+    other signal; a ConfigError for a malformed one.
+
+    >>> marker_measurement("marker:boom.tip:y")
+    ('boom', 'tip', 1)
+    >>> marker_measurement("stroke") is None
+    True
+    """
+    if not measured.startswith("marker:"):
+        return None
+    target, _, axis = measured[len("marker:"):].rpartition(":")
+    link, dot, frame = target.partition(".")
+    if not (dot and link and frame and axis in AXES):
+        raise ConfigError(f"PID: measured: expected 'marker:link.frame:x', ':y' or ':z' (a "
+                          f"marker's position in ground axes), got {measured!r}")
+    return link, frame, AXES.index(axis)
 
 
 @dataclass(frozen=True)
@@ -101,8 +126,9 @@ class PID:
     ``reference`` r(t) (a number, a driver or a table: m for the stroke, the coordinate's
     unit otherwise), gains ``kp`` (1 per unit of y), ``ki`` (per unit and second), ``kd``
     (per unit per second), on ``measured`` ("stroke": the cylinder's own, m; "p_a" or
-    "p_b": its chamber pressure, Pa, without a derivative term; or a joint coordinate's
-    name), output limited to ``output_limits`` (the valve's [-1, 1] by
+    "p_b": its chamber pressure, Pa, without a derivative term; a joint coordinate's
+    name; or "marker:link.frame:x|y|z", a marker's position in ground axes, m), output
+    limited to ``output_limits`` (the valve's [-1, 1] by
     default), anti-windup ``tracking_time`` T_t, s (None: the rule of the docstring), and
     ``feedforward`` k_ff, the command per unit/s of the reference's rate."""
 
@@ -132,8 +158,10 @@ class PID:
                                or not tt > 0 or not math.isfinite(tt)):
             raise ConfigError(f"PID: tracking_time: expected seconds > 0, got {tt!r}")
         if not isinstance(self.measured, str) or not self.measured:
-            raise ConfigError(f"PID: measured: expected 'stroke', 'p_a', 'p_b' or a "
-                              f"coordinate's name, got {self.measured!r}")
+            raise ConfigError(f"PID: measured: expected 'stroke', 'p_a', 'p_b', a "
+                              f"coordinate's name or 'marker:link.frame:x|y|z', got "
+                              f"{self.measured!r}")
+        marker_measurement(self.measured)
         if self.measured in PRESSURES and self.kd:
             raise ConfigError(f"PID: kd: a loop on the pressure {self.measured} has no "
                               f"derivative term (the pressure's rate is the state "
@@ -305,7 +333,7 @@ class HydraulicCylinder(LineElement):
                 0.1 * ab * self.stroke if self.dead_volume_b is None else self.dead_volume_b)
 
     def parameters(self) -> np.ndarray:
-        """(26,) the packed parameters (the ``par`` row of the compiled form)."""
+        """(37,) the packed parameters (the ``par`` row of the compiled form)."""
         aa, ab = self.areas
         va, vb = self.dead_volumes
         pump = self.pump_flow is not None
@@ -323,13 +351,14 @@ class HydraulicCylinder(LineElement):
 
     def _pid_parameters(self) -> tuple:
         """(flag, kp, ki, kd, u_min, u_max, T_t, the measured signal (-1 here: the packing
-        and the numpy rates set it from the mechanism, measured_index), k_ff) of the
-        packed element."""
+        and the numpy rates set it from the mechanism, measured_index), k_ff, a measured
+        marker's point (set by the packing) and axis) of the packed element."""
         c = self.command
         if not self.controlled:
-            return (0.0,) * 7 + (-1.0, 0.0)
+            return (0.0,) * 7 + (-1.0, 0.0, 0.0, 0.0)
+        on = marker_measurement(c.measured)
         return (1.0, c.kp, c.ki, c.kd, *map(float, c.output_limits), c.tracking, -1.0,
-                c.feedforward)
+                c.feedforward, 0.0, float(on[2]) if on else 0.0)
 
     def with_input(self, history) -> HydraulicCylinder:
         """The valve command set from outside; with a controller, its reference."""
@@ -339,12 +368,17 @@ class HydraulicCylinder(LineElement):
 
     def measured_index(self, mech) -> int:
         """The measured coordinate's index; -1 for the stroke, -2 and -3 for the pressures
-        p_a and p_b (ConfigError naming the element for an unknown coordinate)."""
+        p_a and p_b, -4 for a marker's position (ConfigError naming the element for an
+        unknown coordinate, link or frame)."""
         if not self.controlled or self.command.measured == "stroke":
             return -1
         if self.command.measured in PRESSURES:
             return -2 - PRESSURES.index(self.command.measured)
         try:
+            on = marker_measurement(self.command.measured)
+            if on is not None:
+                mech.links[mech.link_index(on[0])].frame(on[1])
+                return _ON_MARKER
             return mech.index(self.command.measured)
         except ConfigError as exc:
             raise ConfigError(f"force element '{self.name}': command: measured: {exc}") \
@@ -365,6 +399,8 @@ class HydraulicCylinder(LineElement):
         """(ints, par, table rows or None) of the compiled form."""
         par = self.parameters()
         par[_MEAS] = self.measured_index(markers.mech)
+        if par[_MEAS] == _ON_MARKER:
+            par[_MMK] = markers.add(marker_measurement(self.command.measured)[:2])
         return ([markers.add(self.marker_a), markers.add(self.marker_b), 0, 0], list(par),
                 None)
 
@@ -402,17 +438,23 @@ class HydraulicCylinder(LineElement):
 
     def state_rates(self, system, tree, q, qd, t: float, z) -> np.ndarray:
         """(p_a', p_b'[, p_s']), Pa/s, at (q, qd, t) and the pressures z."""
+        from pipeline.dynamics.forces.base import marker_point as point_on
         from pipeline.dynamics.forces.loads import history_value
 
         z = self.own_states(z)
         _, _, length, _, dl = self.line(system, tree, q)
         par = self.parameters()
         par[_MEAS] = self.measured_index(system.mechanism)
+        ym = ymd = 0.0
+        if par[_MEAS] == _ON_MARKER:
+            link, frame, axis = marker_measurement(self.command.measured)
+            mp = point_on(system, link, frame, tree, q)
+            ym, ymd = float(mp.R[axis]), float(mp.dR[:, axis] @ qd)
         out = np.empty(z.size)
         rate = self.command.rate(t) if self.controlled else 0.0
         command_rates(par, history_value(self.command, t, self.name), rate, length,
-                      float(dl @ qd), np.asarray(q, dtype=float), np.asarray(qd, dtype=float),
-                      z, 0, out)
+                      float(dl @ qd), ym, ymd, np.asarray(q, dtype=float),
+                      np.asarray(qd, dtype=float), z, 0, out)
         return out
 
     def run_checks(self, system, r) -> list[str]:
@@ -537,11 +579,11 @@ def pid_law(par, r, rd, y, yd, xi):
 
 
 @njit(cache=True)
-def command_rates(par, command, rate, length, sd, q, v, z, o, zd):
+def command_rates(par, command, rate, length, sd, ym, ymd, q, v, z, o, zd):
     """zd[o:] = the rates of the element's states z[o:] at the valve ``command`` (the
     history's value; with a controller, its reference, and ``rate`` its rate), length (m),
-    stroke rate sd
-    (m/s) and coordinates q, rates v (a controller's measurement)."""
+    stroke rate sd (m/s), a measured marker's position component ym (m) and its rate ymd
+    (m/s), and coordinates q, rates v (a controller's measurement)."""
     if par[_PID] > 0.0:
         k = o + _state_count(par) - 1  # the integral term: the element's last state
         i = int(par[_MEAS])
@@ -549,6 +591,8 @@ def command_rates(par, command, rate, length, sd, q, v, z, o, zd):
             y, yd = q[i], v[i]
         elif i == -1:
             y, yd = length - par[_L0], sd
+        elif i == _ON_MARKER:
+            y, yd = ym, ymd
         else:  # a chamber pressure, kd = 0
             y, yd = z[o - 2 - i], 0.0
         u, zd[k] = pid_law(par, command, rate, y, yd, z[k])
@@ -603,6 +647,16 @@ def cylinder_force(e, q, v, z, A, dA, factor, d, Q, Qnc):
 @njit(cache=True)
 def cylinder_rates(e, q, v, z, A, dA, factor, d, zd):
     length, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
+    par = d.par[e]
+    ym = ymd = 0.0
+    if par[_PID] > 0.0 and int(par[_MEAS]) == _ON_MARKER:
+        n = q.shape[0]
+        p, dp = np.zeros(3), np.zeros((n, 3))
+        marker_point(int(par[_MMK]), q, A, dA, d, p, dp)
+        c = int(par[_MCOMP])
+        ym = p[c]
+        for i in range(n):
+            ymd += dp[i, c] * v[i]
     # factor: the histories' values, then their rates (compiled.force_factors)
-    command_rates(d.par[e], factor[e], factor[d.kind.shape[0] + e], length, dl @ v, q, v, z,
-                  d.ints[e, 4], zd)
+    command_rates(par, factor[e], factor[d.kind.shape[0] + e], length, dl @ v, ym, ymd, q, v,
+                  z, d.ints[e, 4], zd)
