@@ -31,6 +31,7 @@ register("validate", "validate", "check a workflow YAML (file:line errors) witho
 register("run", "run", "run a workflow: analyses, plots, renders, exports into output/<name>/")
 register("study", "study", "mode-truncation and design studies of a workflow on Dask")
 register("cache", "cache", "list or clear the shared cache of reduced links")
+register("report", "report", "make a finished run's HTML report again from its folder")
 
 
 def build_parser() -> argparse.ArgumentParser:

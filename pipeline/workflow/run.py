@@ -27,12 +27,13 @@ from pipeline.core.cases import CaseLost, Task, run_cases
 from pipeline.core.errors import ConfigError, PipelineError
 from pipeline.core.progress import stage
 from pipeline.invariants.cache import default_links_dir
+from pipeline.post.report import REPORT, write_report
 from pipeline.workflow.analyses import AnalysisResult, run_analysis
 from pipeline.workflow.build import Machine, build_machine
 from pipeline.workflow.link_build import versions
 from pipeline.workflow.load import Workflow, load_workflow
 from pipeline.workflow.names import check_folder_owner, check_run_folder
-from pipeline.workflow.series import check_series
+from pipeline.workflow.series import check_series, coordinate_unit
 
 logger = logging.getLogger(__name__)
 
@@ -289,7 +290,7 @@ def _run_locked(wf, cache_dir, final, tmp, rebuild, outputs, workers, timings,
         check_outputs(wf, base)
         cache: dict = {}
         build_cases(wf, base, cache_dir, rebuild, cache)
-        _warn_redundant(wf, base)
+        mobility = _mobility(wf, base)
         for w in base.model_warnings:
             logger.warning("%s: %s", wf.name, w)
         for w in base.model_notes:
@@ -318,9 +319,14 @@ def _run_locked(wf, cache_dir, final, tmp, rebuild, outputs, workers, timings,
         if skipped and status == "ok":
             status = "partial"
         timings["total"] = time.perf_counter() - t_start
-        manifest = _manifest(wf, base, results, timings, status, files)
+        if outputs:
+            files.append(REPORT)
+        manifest = _manifest(wf, base, results, timings, status, files, mobility)
         manifest["skipped_outputs"] = skipped
         (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, default=str))
+        if outputs:  # from what the run wrote: `pipeline report` makes it again the same
+            with stage(f"{wf.name}: report"):
+                write_report(tmp)
         replace_dir(tmp, final)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -328,23 +334,26 @@ def _run_locked(wf, cache_dir, final, tmp, rebuild, outputs, workers, timings,
     return RunResult(wf, final, base, machines, results, manifest)
 
 
-def _warn_redundant(wf: Workflow, m: Machine) -> None:
-    """Name the redundant closure constraints once per run (as ADAMS does at verification):
-    kept by the DAE formulation, their reactions are not unique (minimum-norm ones are
-    reported)."""
+def _mobility(wf: Workflow, m: Machine) -> dict:
+    """The machine's mobility at its start for the manifest ({"loops", "dof",
+    "redundant"}; dof None where it could not be determined), naming the redundant closure
+    constraints once per run (as ADAMS does at verification): kept by the DAE
+    formulation, their reactions are not unique (minimum-norm ones are reported)."""
     from pipeline.kinematics import dof_report
 
-    if not m.mechanism.topology.loops:
-        return
+    loops = len(m.mechanism.topology.loops)
+    if not loops:
+        return {"loops": 0, "dof": m.mechanism.n, "redundant": []}
     try:
         rep = dof_report(m.mechanism, m.q0, list(m.system.drivers))
     except PipelineError as exc:  # a singular start: the analyses will say so
         logger.warning("%s: mobility not determined at the start: %s", wf.name, exc)
-        return
+        return {"loops": loops, "dof": None, "redundant": []}
     if rep.redundant:
         logger.warning("%s: %d redundant closure constraints (kept; their reactions are "
                        "minimum-norm): %s", wf.name, len(rep.redundant),
                        ", ".join(rep.redundant))
+    return {"loops": loops, "dof": rep.dof, "redundant": list(rep.redundant)}
 
 
 def expected_verdicts(wf: Workflow) -> dict[tuple[str, str], str]:
@@ -369,7 +378,8 @@ def overall_status(results: dict, expected: dict | None = None) -> str:
     return next((v for v in ("partial", "suspect") if v in verdicts), "ok")
 
 
-def _manifest(wf: Workflow, base: Machine, results, timings, status, files) -> dict:
+def _manifest(wf: Workflow, base: Machine, results, timings, status, files,
+              mobility: dict) -> dict:
     analyses = {}
     expected = expected_verdicts(wf)
     for name, rs in results.items():
@@ -389,7 +399,11 @@ def _manifest(wf: Workflow, base: Machine, results, timings, status, files) -> d
     return {"workflow": str(wf.path), "name": wf.name, "status": status,
             "input_hash": wf.input_hash(), "quick": wf.quick,
             "overrides": [[p, v] for p, v in wf.overrides], "versions": versions(),
-            "coordinates": list(base.mechanism.coordinates), "links": links,
+            "coordinates": list(base.mechanism.coordinates),
+            "coordinate_units": [coordinate_unit(c) for c in base.mechanism.coordinates],
+            "model": {**mobility, "warnings": list(base.model_warnings),
+                      "notes": list(base.model_notes)},
+            "links": links,
             "analyses": analyses, "timings_s": {k: round(v, 3) for k, v in timings.items()},
             "files": sorted(files),
             "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}

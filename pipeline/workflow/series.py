@@ -54,7 +54,9 @@ class Series:
     unit: str
 
 
-def _coordinate_unit(name: str, order: int) -> str:
+def coordinate_unit(name: str, order: int = 0) -> str:
+    """The unit of coordinate ``name`` (rad, m or - for a modal one), of its rate
+    (``order`` 1) or acceleration (2)."""
     var = name.rsplit(".", 1)[-1]
     base = "rad" if var in ("theta", "alpha", "beta", "rx", "ry", "rz") else (
         "-" if var.startswith("eta") else "m")
@@ -127,7 +129,7 @@ def series(result, mech, spec: str, parts=None) -> Series:
         order = ("q", "qd", "qdd").index(kind)
         arr = (result.q, result.qd, result.qdd)[order]
         return Series(arr[:, result.coordinates.index(rest)],
-                      rest + ("", " rate", " acceleration")[order], _coordinate_unit(rest, order))
+                      rest + ("", " rate", " acceleration")[order], coordinate_unit(rest, order))
     if kind in ("marker", "deflection"):
         target, comp, axes = _marker_parts(spec, rest, mech)
         link, _, frame = target.partition(".")
@@ -155,7 +157,7 @@ def series(result, mech, spec: str, parts=None) -> Series:
         if rest not in result.forces:
             raise ConfigError(f"series {spec!r}: analysis '{result.name}' has actuator forces "
                               f"for {sorted(result.forces)}")
-        unit = "N m" if _coordinate_unit(rest, 0) == "rad" else "N"
+        unit = "N m" if coordinate_unit(rest, 0) == "rad" else "N"
         return Series(np.asarray(result.forces[rest]), f"{rest} actuator force", unit)
     if kind == "reaction":
         return reaction_series(result, spec)

@@ -192,3 +192,36 @@ def test_rigid_link_from_a_mesh_has_the_solid_s_mass_properties(tmp_path):
     assert "pin" in [f.name for f in m.mechanism.links[m.mechanism.link_index("bar")].frames]
     r = res.result("rest")
     assert r.success and r.q[0, 0] == pytest.approx(-np.pi / 2, abs=1e-9)  # hangs down
+
+
+def test_a_run_writes_its_report_and_it_loads_in_a_browser(tmp_path):
+    """The report (pipeline.post.report) of a real run: in its folder and manifest, with the
+    model's mobility (a planar four-bar on spatial revolutes: 4 coordinates, rank 3, three
+    redundant rows); it opens in headless chromium with no error and every figure decoded,
+    and `pipeline report` makes the same page again from the folder."""
+    import re
+    import shutil
+    import subprocess
+
+    from pipeline import cli
+
+    res = run_workflow(_write(tmp_path), out_root=tmp_path / "out",
+                       cache_dir=tmp_path / "links")
+    man = res.manifest
+    assert "report.html" in man["files"] and (res.out_dir / "report.html").is_file()
+    assert man["coordinate_units"] == ["rad"] * 4
+    assert man["model"]["loops"] == 1 and man["model"]["dof"] == 1
+    assert len(man["model"]["redundant"]) == 3
+    page = (res.out_dir / "report.html").read_text()
+    figures = [f for f in man["files"] if f.endswith((".png", ".gif"))]
+    assert figures and page.count("<figure><img") == len(figures)
+    assert cli.main(["report", str(res.out_dir)]) == 0
+    assert (res.out_dir / "report.html").read_text() == page
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        pytest.skip("chromium is not installed (apt install chromium)")
+    out = subprocess.run([chromium, "--headless", "--no-sandbox", "--disable-gpu", "--dump-dom",
+                          (res.out_dir / "report.html").as_uri()],
+                         check=False, capture_output=True, text=True, timeout=180)
+    body = re.search(r"<body([^>]*)>", out.stdout).group(1)
+    assert 'data-errors="0"' in body and f'data-figures="{len(figures)}"' in body, body
