@@ -268,12 +268,13 @@ def _plots(folder, spec, cases, rows, recommendation) -> None:
 
 def _geometry_files(wf) -> list[Path]:
     """The geometry files (STEP, .geo) the base workflow's link specs read."""
-    from pipeline.workflow.build import _link_spec
+    from pipeline.workflow.build import _link_spec, is_reduced_file
     from pipeline.workflow.link_build import link_request
 
     files = []
     for name, entry in wf.spec.links.items():
-        if getattr(entry, "spec", None) is not None:
+        spec = getattr(entry, "spec", None)
+        if spec is not None and not is_reduced_file(spec):  # a reduced file: an input
             spec, base_dir = _link_spec(wf, name, entry)
             files += link_request(spec, base_dir)[1]
     return files

@@ -190,7 +190,42 @@ def _flex_frames(reduced, idx, plane, extra, where_frames, second_order: bool = 
     return frame_views(reduced, idx, plane, second_order, fixed, where_frames)
 
 
+#: suffixes of a ``spec`` that is a reduced link in the documented HDF5 format (written by
+#: ``pipeline reduce --hdf5`` or by another tool, docs/hdf5_format.md): read, not reduced
+REDUCED_FILES = (".h5", ".hdf5")
+
+
+def is_reduced_file(spec) -> bool:
+    """Whether a link entry's ``spec`` names a reduced link file (:data:`REDUCED_FILES`)."""
+    return isinstance(spec, str) and Path(spec).suffix.lower() in REDUCED_FILES
+
+
+def _read_reduced(wf: Workflow, name: str, entry):
+    """The reduced link of a ``spec: <file>.h5`` entry, as the file holds it."""
+    from pipeline.invariants.hdf5 import read_hdf5
+
+    path = (wf.base_dir / entry.spec).resolve()
+    if entry.spec_overrides:
+        raise wf.error("links", name, "spec_overrides",
+                       msg="a reduced link read from a file is used as it is; change its "
+                           "spec and reduce it again instead")
+    if not path.is_file():
+        raise wf.error("links", name, "spec", msg=f"reduced link file {str(path)!r} not found")
+    try:
+        link = read_hdf5(path)
+    except PipelineError as exc:
+        raise wf.error("links", name, "spec", msg=str(exc)) from None
+    if getattr(entry, "geometric_stiffening", False) and \
+            link.force_geometric_stiffness.shape[0] == 0:
+        raise wf.error("links", name, "geometric_stiffening",
+                       msg=f"{path.name} holds no geometric stiffness (reduce its spec with "
+                           "modes.geometric_stiffening: true and export it again)")
+    return link, "file"
+
+
 def _reduce(wf: Workflow, name: str, entry, cache_dir: Path, rebuild: bool):
+    if is_reduced_file(entry.spec):
+        return _read_reduced(wf, name, entry)
     spec, base = _link_spec(wf, name, entry)
     if getattr(entry, "geometric_stiffening", False):
         spec = spec.model_copy(update={"modes": spec.modes.model_copy(

@@ -191,7 +191,9 @@ class FlexibleLink(Strict):
     reference interface (the body frame)."""
 
     type: Literal["flexible"]
-    spec: str | LinkSpec = Field(description="link spec file (relative to the workflow) or inline")
+    spec: str | LinkSpec = Field(description="link spec file (relative to the workflow) or "
+                                             "inline, or a reduced link file (.h5, "
+                                             "docs/hdf5_format.md) used as it is")
     spec_overrides: dict[str, Any] = Field(
         default_factory=dict, description="dotted overrides of the link spec, e.g. "
                                           "{geometry.mesh_size: 0.02, modes.count: 4}")

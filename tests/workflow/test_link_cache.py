@@ -70,3 +70,39 @@ def test_cache_lists_and_clears(folder, capsys):
     assert "removed 1 reduced links" in capsys.readouterr().out
     assert [p.name for p in (folder / "link-cache").iterdir()] == ["not-an-entry"]
     assert main(["cache", "--older-than", "-1"]) == 2
+
+
+def test_a_reduced_link_exported_to_hdf5_runs_as_its_spec(folder):
+    """`spec: rod.h5`, the reduced link `pipeline reduce --hdf5` wrote (or another tool in
+    the documented format), is read and used as it is: the same machine as the spec's."""
+    pytest.importorskip("h5py")
+    from pipeline.workflow import run_workflow
+
+    ref = run_workflow(folder / "swing.yaml", out_root=folder / "a", outputs=False)
+    assert main(["reduce", str(folder / "rod.yaml"), "--hdf5", str(folder / "rod.h5")]) == 0
+    (folder / "swing.yaml").write_text(WORKFLOW.replace("spec: rod.yaml", "spec: rod.h5"))
+    res = run_workflow(folder / "swing.yaml", out_root=folder / "b", outputs=False)
+    assert res.manifest["links"]["rod"]["cache"] == "file"
+    a, b = ref.result("fall"), res.result("fall")
+    assert b.verdict == "ok" and a.q.shape == b.q.shape and b.q.shape[1] == 3
+    assert abs(a.q - b.q).max() < 1e-12
+
+
+@pytest.mark.parametrize("change, where, expect", [
+    ("spec: rod.h5, spec_overrides: {modes.count: 2}", "links.rod.spec_overrides",
+     "a reduced link read from a file is used as it is"),
+    ("spec: nope.h5", "links.rod.spec", "reduced link file .* not found"),
+    ("spec: junk.h5", "links.rod.spec", r".*junk\.h5: unreadable HDF5 file"),
+    ("spec: rod.h5, geometric_stiffening: true", "links.rod.geometric_stiffening",
+     "rod.h5 holds no geometric stiffness"),
+])
+def test_a_bad_reduced_link_file_is_named_at_its_line(folder, change, where, expect):
+    pytest.importorskip("h5py")
+    from pipeline.core.errors import ConfigError
+    from pipeline.workflow import run_workflow
+
+    assert main(["reduce", str(folder / "rod.yaml"), "--hdf5", str(folder / "rod.h5")]) == 0
+    (folder / "junk.h5").write_text("not HDF5")
+    (folder / "swing.yaml").write_text(WORKFLOW.replace("spec: rod.yaml", change))
+    with pytest.raises(ConfigError, match=rf"swing\.yaml:5: {where}: {expect}"):
+        run_workflow(folder / "swing.yaml", out_root=folder / "out", outputs=False)

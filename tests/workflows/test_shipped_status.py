@@ -26,6 +26,29 @@ def test_shipped_workflow_is_ok(quick_run, name):
     assert not bad
 
 
+@pytest.mark.parametrize("name", ["double_pendulum", "excavator_hydraulic", "front_loader",
+                                  "front_loader_hydraulic", "mobile_crane", "slider_crank",
+                                  "tractor_trailer"])
+def test_shipped_workflows_report_opens_in_chromium(quick_run, name):
+    """Each shipped workflow's report.html opens in headless chromium with no error and
+    every figure (plots, stills, animations) decoded."""
+    import re
+    import shutil
+    import subprocess
+
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        pytest.skip("chromium is not installed (apt install chromium)")
+    res = quick_run(name)
+    figures = [f for f in res.manifest["files"] if f.endswith((".png", ".gif"))]
+    out = subprocess.run([chromium, "--headless", "--no-sandbox", "--disable-gpu", "--dump-dom",
+                          (res.out_dir / "report.html").as_uri()],
+                         check=False, capture_output=True, text=True, timeout=300)
+    body = re.search(r"<body([^>]*)>", out.stdout).group(1)
+    assert figures and f'data-figures="{len(figures)}"' in body, body
+    assert 'data-errors="0"' in body, body
+
+
 @pytest.mark.slow
 def test_the_main_job_is_ok_in_full(tmp_path):
     """The README's first command runs the full double pendulum: its flexible swing bends
