@@ -233,6 +233,8 @@ def _solve_reduced(q, qd, B, Bp, c, terms, residual, J) -> ReducedState:
         try:
             qdd_I, qdd, lam = _reduced_solve(np.ascontiguousarray(B), np.ascontiguousarray(Bp),
                                              M, rhs, c)
+        except np.linalg.LinAlgError:  # a singular mass matrix: the caller names it
+            raise
         except ValueError:  # non-finite entries
             qdd_I = np.full(B.shape[1], np.nan)
             qdd, lam = np.full(q.shape[0], np.nan), np.full(Bp.shape[1], np.nan)
