@@ -25,8 +25,8 @@ Dynamics
     :func:`kinetostatics` (with joint reactions), :func:`simulate` (checked transient:
     ``result.verdict``), :func:`vibration_modes`, :func:`marker_motion`; stepping from
     outside (a controller, a co-simulation): :class:`Simulator` (``step(dt, inputs)``,
-    ``state``/``set_state``, ``result()``); FMUs beside it: :class:`FMU`,
-    :func:`cosimulate`.
+    ``state``/``set_state``, ``result()``); FMUs and digital controllers beside it:
+    :class:`FMU`, :class:`SampledPID`, :func:`cosimulate`.
 Results
     :func:`marker_positions` (positions and deflections in ground or any link's axes),
     :func:`energies`, :func:`series` (any named history, stresses included),
@@ -100,6 +100,7 @@ _HOMES = {
     "SimulationResult": "pipeline.solver",
     "simulate": "pipeline.solver",
     "FMU": "pipeline.solver.cosim",
+    "SampledPID": "pipeline.solver.cosim",
     "cosimulate": "pipeline.solver.cosim",
     "Simulator": "pipeline.solver.simulator",
     "SimulatorState": "pipeline.solver.simulator",
@@ -160,7 +161,7 @@ if TYPE_CHECKING:  # what the names are, for readers and type checkers
     from pipeline.post.shapes import LinkShape, shape_from_reduced
     from pipeline.post.vtk_series import write_vtk_series
     from pipeline.solver import Limits, SimulationResult, simulate
-    from pipeline.solver.cosim import FMU, cosimulate
+    from pipeline.solver.cosim import FMU, SampledPID, cosimulate
     from pipeline.solver.simulator import Simulator, SimulatorState
     from pipeline.workflow import build_machine, load_workflow, run_workflow
     from pipeline.workflow.build import kept_modes
@@ -210,7 +211,8 @@ def reduce_link(spec: str | Path, cache_dir: str | Path | None = None,
 __all__ = [
     "FMU", "JOINTS", "BodyMass", "Constant", "Curve", "ForceCylinder", "Harmonic",
     "HydraulicCylinder", "Joint", "JointForce", "JointSpringDamper", "Limits", "LinkShape",
-    "Panel", "Picture", "PointForce", "Ramp", "ReducedLink", "SimulationResult", "Simulator",
+    "Panel", "Picture", "PointForce", "Ramp", "ReducedLink", "SampledPID", "SimulationResult",
+    "Simulator",
     "SimulatorState", "SmoothStep", "SpringDamper",
     "Style", "System", "Table", "Torque", "animate_machine", "body_from_reduced",
     "build_machine", "build_mechanism", "cosimulate", "dof_report",

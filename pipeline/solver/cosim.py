@@ -1,20 +1,22 @@
-"""Co-simulation with FMUs: a controller or a circuit block exported by another tool (FMI 2
-co-simulation, run through fmpy) advanced at a macro step beside the machine.
+"""Co-simulation: blocks advanced at a macro step beside the machine, each an FMU (a
+controller or a circuit block exported by another tool, FMI 2 co-simulation, run through
+fmpy) or a built-in sampled controller (:class:`SampledPID`, a digital PID's rhythm).
 
 The master loop, at each communication point t_k of the macro step H:
 
-1. every FMU's inputs are set from the machine's signals at t_k (:func:`signal`: a
+1. every block's inputs are set from the machine's signals at t_k (:func:`signal`: a
    coordinate ``q:<name>``, its rate ``qd:<name>``, an element's state
    ``state:<element>.<state>``, a marker's position ``marker:<link>.<frame>:x|y|z`` or
    ``time``);
-2. every FMU does its step [t_k, t_k + H];
+2. every block does its step [t_k, t_k + H] (a sampled controller samples when t_k is one
+   of its sampling instants, and holds its output between them);
 3. its outputs, read after the step, are the machine's inputs over the same interval (a
    :class:`~pipeline.solver.simulator.Simulator` input by name: a force element's history,
    a cylinder's valve command or its controller's reference, a driven coordinate);
 4. the machine does its step [t_k, t_k + H].
 
-So the FMUs step first on the machine's state at the start of the interval, and hold their
-outputs over it: a sampled controller without a delay (a discrete-time controller's
+So the blocks step first on the machine's state at the start of the interval, and hold
+their outputs over it: a sampled controller without a delay (a discrete-time controller's
 rhythm). The machine's integration error is estimated and judged as the Simulator's
 (:meth:`Simulator.result`); the coupling's own error (the outputs held over H) is the
 user's choice of H, and is not estimated here.
@@ -23,9 +25,11 @@ user's choice of H, and is not estimated here.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -34,7 +38,7 @@ from pipeline.core.progress import progress_counter
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["FMU", "cosimulate", "signal"]
+__all__ = ["FMU", "SampledPID", "anti_windup_time", "cosimulate", "signal"]
 
 
 @dataclass(frozen=True)
@@ -48,6 +52,118 @@ class FMU:
     inputs: Mapping[str, str] = field(default_factory=dict)
     outputs: Mapping[str, str] = field(default_factory=dict)
     parameters: Mapping[str, float] = field(default_factory=dict)
+
+    def start(self, sim, t0: float, label: str, macro_step: float):
+        """The FMU instantiated and initialised for a co-simulation (:class:`_Slave`)."""
+        return _Slave(self, sim, t0, label)
+
+
+def anti_windup_time(kp: float, ki: float, kd: float, given: float | None = None) -> float:
+    """The back-calculation's tracking time T_t, s: ``given``, else sqrt(T_i T_d) with
+    T_i = k_p / k_i and T_d = k_d / k_p (Astrom & Hagglund), T_i without a derivative
+    term; 0 without integral action (nothing winds up).
+
+    >>> anti_windup_time(20.0, 40.0, 0.5)  # sqrt(0.5 * 0.025)
+    0.11180339887498948
+    """
+    if not ki:
+        return 0.0
+    if given is not None:
+        return float(given)
+    ti = kp / ki
+    return math.sqrt(ti * kd / kp) if kd and kp else ti or 1.0
+
+
+@dataclass(frozen=True)
+class SampledPID:
+    """A digital PID controller beside the machine: every ``period`` T (s) it samples the
+    machine's signal ``measured`` (:func:`signal`) and sets the Simulator input ``output``
+    (a cylinder's valve command, a force element's history, a driven coordinate) to
+
+        e_k = r(t_k) - y_k,   v_k = k_ff r'(t_k) + k_p e_k + x_k - k_d (y_k - y_k-1) / T,
+        u_k = clip(v_k, u_min, u_max),   x_k+1 = x_k + T (k_i e_k + (u_k - v_k) / T_t),
+
+    held over [t_k, t_k + T) (zero-order hold): the derivative acts on the measurement (0 at
+    the first sample), the integral is pulled back while the output is clipped
+    (back-calculation, T_t by :func:`anti_windup_time`). ``reference`` r(t): a number, a
+    driver or a table (its rate r' feeds ``feedforward`` k_ff). Units: the output's per
+    the measured signal's."""
+
+    measured: str
+    output: str
+    reference: Any
+    kp: float
+    ki: float = 0.0
+    kd: float = 0.0
+    period: float = 0.01
+    output_limits: tuple[float, float] | None = None
+    tracking_time: float | None = None
+    feedforward: float = 0.0
+
+    def __post_init__(self):
+        for key in ("kp", "ki", "kd", "feedforward"):
+            x = getattr(self, key)
+            if isinstance(x, bool) or not isinstance(x, int | float) or not x >= 0 \
+                    or not math.isfinite(x):
+                raise ConfigError(f"sampled PID: {key}: expected a gain >= 0, got {x!r}")
+        for key in ("period", "tracking_time"):
+            x = getattr(self, key)
+            if (x is not None or key == "period") and (
+                    isinstance(x, bool) or not isinstance(x, int | float) or not x > 0
+                    or not math.isfinite(x)):
+                raise ConfigError(f"sampled PID: {key}: expected seconds > 0, got {x!r}")
+        lo = self.output_limits
+        if lo is not None and not (isinstance(lo, tuple | list) and len(lo) == 2 and all(
+                isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
+                for x in lo) and lo[0] < lo[1]):
+            raise ConfigError(f"sampled PID: output_limits: expected [u_min, u_max], "
+                              f"u_min < u_max, got {lo!r}")
+
+    def start(self, sim, t0: float, label: str, macro_step: float):
+        """The running controller (:class:`_Sampler`) of a co-simulation."""
+        return _Sampler(self, sim, macro_step)
+
+
+class _Sampler:
+    """A :class:`SampledPID` in a run: its integral term, last measurement and held
+    output."""
+
+    def __init__(self, spec: SampledPID, sim, macro_step: float):
+        self.spec = spec
+        self.where = f"co-simulation: sampled PID on {spec.measured!r}"
+        ratio = spec.period / macro_step
+        self.every = round(ratio)
+        if self.every < 1 or abs(ratio - self.every) > 1e-9 * ratio:
+            raise ConfigError(f"{self.where}: period {spec.period:g} s is not a whole "
+                              f"multiple of the macro step {macro_step:g} s")
+        if spec.output not in sim.inputs:
+            raise ConfigError(f"{self.where}: output drives {spec.output!r}, which is not an "
+                              f"input of the Simulator (its inputs: {sorted(sim.inputs)}; "
+                              "declare it with Simulator(..., inputs=[...]))")
+        signal(sim, spec.measured)  # an unknown signal: ConfigError before anything runs
+        self.tracking = anti_windup_time(spec.kp, spec.ki, spec.kd, spec.tracking_time)
+        self.k, self.x, self.y_last, self.u = 0, 0.0, None, 0.0
+
+    def step(self, sim, t: float, h: float) -> dict[str, float]:
+        from pipeline.dynamics.forces.loads import history_rate, history_value
+
+        c = self.spec
+        if self.k % self.every == 0:  # a sampling instant
+            T = c.period
+            y = signal(sim, c.measured)
+            e = history_value(c.reference, t, "sampled PID reference") - y
+            dy = 0.0 if self.y_last is None else (y - self.y_last) / T
+            v = c.feedforward * history_rate(c.reference, t) + c.kp * e + self.x - c.kd * dy
+            u = v if c.output_limits is None else min(max(v, c.output_limits[0]),
+                                                      c.output_limits[1])
+            if c.ki:
+                self.x += T * (c.ki * e + (u - v) / self.tracking)
+            self.y_last, self.u = y, u
+        self.k += 1
+        return {c.output: self.u}
+
+    def close(self) -> None:
+        pass
 
 
 def signal(sim, name: str) -> float:
@@ -182,46 +298,52 @@ class _StepFailed(Exception):
     pass
 
 
-def cosimulate(sim, fmus: Sequence[FMU], t_end: float, macro_step: float,
+def cosimulate(sim, blocks: Sequence, t_end: float, macro_step: float,
                progress: bool = False, limits=None):
-    """Advance the Simulator ``sim`` to ``t_end`` (s) beside the ``fmus`` at the communication
-    step ``macro_step`` (s; the last one shortened), as the module docstring says; returns
-    ``sim.result(limits=limits)`` (checked; "partial" with the FMU's message if one fails
-    its step).
+    """Advance the Simulator ``sim`` to ``t_end`` (s) beside the ``blocks`` (:class:`FMU`,
+    :class:`SampledPID`) at the communication step ``macro_step`` (s; the last one
+    shortened), as the module docstring says; returns ``sim.result(limits=limits)``
+    (checked; "partial" with the FMU's message if one fails its step).
 
-    The Simulator must declare every input an FMU output drives; bad names (an FMU's
-    variable, a signal, an input) are a ConfigError naming the FMU and the name, raised
+    The Simulator must declare every input a block drives; bad names (an FMU's variable, a
+    signal, an input), an input driven twice and a controller's period that is not a whole
+    multiple of the macro step are a ConfigError naming the block and the name, raised
     before anything runs."""
     if not (np.isfinite(macro_step) and macro_step > 0):
         raise ConfigError(f"co-simulation: macro_step: expected seconds > 0, got {macro_step!r}")
     if not (np.isfinite(t_end) and t_end > sim.t):
         raise ConfigError(f"co-simulation: t_end: expected a time after the Simulator's "
                           f"{sim.t:g} s, got {t_end!r}")
-    driven = [target for f in fmus for target in f.outputs.values()]
+    driven = [target for b in blocks for target in _targets(b)]
     twice = sorted({x for x in driven if driven.count(x) > 1})
     if twice:
-        raise ConfigError(f"co-simulation: {twice} driven by more than one FMU output")
-    slaves = []
+        raise ConfigError(f"co-simulation: {twice} driven by more than one block output")
+    running = []
     try:
-        for k, spec in enumerate(fmus):
-            slaves.append(_Slave(spec, sim, sim.t, f"fmu{k}"))
+        for k, spec in enumerate(blocks):
+            running.append(spec.start(sim, sim.t, f"block{k}", macro_step))
         count = int(np.ceil((t_end - sim.t) / macro_step - 1e-9))
         with progress_counter(count, "co-simulating", progress) as advance:
             for k in range(count):
                 t = sim.t
                 h = macro_step if k < count - 1 else t_end - t  # the last one to t_end
                 values = {}
-                for s in slaves:
-                    values.update(s.step(sim, t, h))
+                for b in running:
+                    values.update(b.step(sim, t, h))
                 sim.step(h, values)
                 advance(k + 1)
     except _StepFailed as exc:
         logger.warning("%s", exc)
         return _partial(sim.result(limits=limits), str(exc))
     finally:
-        for s in slaves:
-            s.close()
+        for b in running:
+            b.close()
     return sim.result(limits=limits)
+
+
+def _targets(block) -> list[str]:
+    """The Simulator inputs a block drives."""
+    return [block.output] if isinstance(block, SampledPID) else list(block.outputs.values())
 
 
 def _partial(r, message: str):

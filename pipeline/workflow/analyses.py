@@ -184,15 +184,17 @@ def run_dynamic(m: Machine, a, path) -> dict:
                     rotation=c.rotation, min_step=c.min_step, spin=c.spin,
                     axial=c.axial)
     try:
-        if a.fmus:
-            r = _cosimulate(m, system, q0, a, limits)
+        if a.fmus or a.controllers:
+            r = _cosimulate(m, system, q0, a, limits, path)
         else:
             r = simulate(system, q0, m.qd0, (0.0, a.t_end), t_eval=_times(a),
                          method=a.method, rtol=a.rtol, atol=a.atol, progress=True,
                          formulation=a.formulation, max_steps=a.max_steps,
                          max_wall=a.max_wall, limits=limits, **opts)
     except ConfigError as exc:
-        raise m.workflow.error(*path, *(("fmus",) if a.fmus else ()), msg=str(exc)) from None
+        where = ("controllers",) if "sampled PID" in str(exc) else \
+            ("fmus",) if a.fmus else ()
+        raise m.workflow.error(*path, *where, msg=str(exc)) from None
     forces = {name: r.driver_forces[:, i] for i, name in enumerate(r.driven)}
     extra = {"closure_residual": r.closure_residual, "n_steps": r.n_steps, "n_rhs": r.n_rhs,
              "method": r.method, "formulation": r.formulation}
@@ -218,19 +220,39 @@ def run_dynamic(m: Machine, a, path) -> dict:
     }
 
 
-def _cosimulate(m: Machine, system, q0, a, limits):
-    """The dynamic analysis ``a`` with its FMUs beside the machine (pipeline.solver.cosim):
-    the Simulator's inputs are what the FMUs' outputs drive; the outputs are the
-    communication points."""
-    from pipeline.solver.cosim import FMU, cosimulate
+def _cosimulate(m: Machine, system, q0, a, limits, path):
+    """The dynamic analysis ``a`` with its FMUs and digital controllers beside the machine
+    (pipeline.solver.cosim): the Simulator's inputs are what they drive; the outputs are
+    the communication points (``macro_step``, by default the shortest controller
+    period)."""
+    from pipeline.kinematics.drivers import driver_from_dict
+    from pipeline.solver.cosim import FMU, SampledPID, cosimulate, signal
     from pipeline.solver.simulator import Simulator
 
-    fmus = [FMU(m.workflow.base_dir / f.path, f.inputs, f.outputs, f.parameters)
-            for f in a.fmus]
-    targets = list(dict.fromkeys(x for f in fmus for x in f.outputs.values()))
-    sim = Simulator(system, q0, m.qd0, step=a.step, inputs=targets, rho_inf=a.rho_inf,
-                    rtol=a.rtol, atol=a.atol)
-    return cosimulate(sim, fmus, a.t_end, a.macro_step, progress=True, limits=limits)
+    wf = m.workflow
+    blocks = [FMU(wf.base_dir / f.path, f.inputs, f.outputs, f.parameters) for f in a.fmus]
+    for i, c in enumerate(a.controllers):
+        ref = c.reference if not isinstance(c.reference, dict) else driver_from_dict(
+            c.reference, wf.where(*path, "controllers", i, "reference"), wf.base_dir)
+        blocks.append(SampledPID(c.measured, c.output, ref, c.kp, c.ki, c.kd, c.period,
+                                 c.output_limits, c.tracking_time, c.feedforward))
+    targets = list(dict.fromkeys(x for f in a.fmus for x in f.outputs.values()))
+    targets += [c.output for c in a.controllers if c.output not in targets]
+    macro = a.macro_step or min(c.period for c in a.controllers)
+    try:
+        sim = Simulator(system, q0, m.qd0, step=a.step, inputs=targets, rho_inf=a.rho_inf,
+                        rtol=a.rtol, atol=a.atol)
+    except ConfigError as exc:  # an input nothing in the machine takes: at its controller
+        for i, c in enumerate(a.controllers):
+            if f"input {c.output!r}" in str(exc):
+                raise wf.error(*path, "controllers", i, "output", msg=str(exc)) from None
+        raise
+    for i, c in enumerate(a.controllers):
+        try:
+            signal(sim, c.measured)
+        except ConfigError as exc:
+            raise wf.error(*path, "controllers", i, "measured", msg=str(exc)) from None
+    return cosimulate(sim, blocks, a.t_end, macro, progress=True, limits=limits)
 
 
 def state_histories(system, r) -> dict:

@@ -364,13 +364,41 @@ class FmuSpec(Strict):
     parameters: dict[str, float] = Field(default_factory=dict, description="start values")
 
 
+class ControllerSpec(Strict):
+    """A digital PID controller beside the machine, sampled every ``period`` with its output
+    held (pipeline.solver.cosim.SampledPID)."""
+
+    type: Literal["pid"] = "pid"
+    measured: str = Field(description="the machine's signal (q:<coordinate>, "
+                                      "qd:<coordinate>, state:<element>.<state>, "
+                                      "marker:<link>.<frame>:x|y|z, time)")
+    output: str = Field(description="the force element it drives (its history; a "
+                                    "cylinder's valve command) or a driven coordinate")
+    reference: float | dict[str, Any] = Field(description="r(t): a number or a driver")
+    kp: float = Field(ge=0, description="output per unit of the measured signal")
+    ki: float = Field(0.0, ge=0, description="per unit and second")
+    kd: float = Field(0.0, ge=0, description="per unit per second, on the measurement")
+    period: float = Field(gt=0, description="sampling period, s")
+    output_limits: tuple[float, float] | None = Field(None, description="[u_min, u_max]")
+    tracking_time: float | None = Field(None, gt=0, description="anti-windup, s (default "
+                                                                 "sqrt(T_i T_d))")
+    feedforward: float = Field(0.0, ge=0, description="output per unit/s of the "
+                                                      "reference's rate")
+
+
 class DynamicAnalysis(_Timed):
     type: Literal["dynamic"]
     fmus: list[FmuSpec] = Field(default_factory=list, description="FMUs co-simulated with "
                                 "the machine (generalized_alpha with a fixed step; the "
                                 "outputs are the communication points)")
-    macro_step: float | None = Field(None, gt=0, description="the FMUs' communication step, "
-                                                             "s")
+    controllers: list[ControllerSpec] = Field(
+        default_factory=list, description="digital controllers beside the machine "
+                                          "(generalized_alpha with a fixed step; the outputs "
+                                          "are the communication points)")
+    macro_step: float | None = Field(None, gt=0, description="the communication step of the "
+                                                             "FMUs and controllers, s "
+                                                             "(default without FMUs: the "
+                                                             "shortest controller period)")
     method: str = Field("DOP853", description="DOP853 | Radau | BDF | RK45 | LSODA | "
                                               "generalized_alpha")
     formulation: Literal["auto", "dae", "partitioned"] = Field(
@@ -397,6 +425,9 @@ class DynamicAnalysis(_Timed):
                           or self.macro_step is None):
             raise ValueError("fmus: a co-simulation runs method generalized_alpha with a "
                              "fixed step and a macro_step (the FMUs' communication step)")
+        if self.controllers and (self.method != "generalized_alpha" or self.step is None):
+            raise ValueError("controllers: a digital controller runs beside method "
+                             "generalized_alpha with a fixed step")
         return self
 
     @model_validator(mode="after")

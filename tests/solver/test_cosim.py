@@ -93,6 +93,30 @@ def test_the_fmu_drives_the_machine_as_the_same_controller_written_in_python(con
     assert abs(r.q[-1, 0] - goal) < 2e-3  # it took the mass to its goal
 
 
+def test_the_fmu_controller_is_the_built_in_one_to_the_macro_steps_order(controller_fmu):
+    """The FMU's PI law held over each macro step against the cylinder's own continuous PID
+    with the same gains (pipeline.dynamics.forces.hydraulics.PID, integrated in the step):
+    the difference halves with the macro step (issue 27: "to the macro-step's order")."""
+    from pipeline.dynamics.forces.hydraulics import PID
+    from pipeline.solver import simulate
+
+    goal, kp, ki = S0 + 0.03, 15.0, 10.0  # the output stays inside the valve's range
+    te = np.linspace(0.0, 0.4, 51)
+    system, _ = _lift(PID(goal, kp=kp, ki=ki), viscous_friction=1e4)
+    cont = simulate(system, np.array([S0]), np.zeros(1), (0.0, 0.4), te,
+                    method="generalized_alpha", step=2.5e-4, rtol=1e-2, atol=1e-7,
+                    progress=False)
+    gaps = []
+    for H in (8e-3, 4e-3, 2e-3):
+        fmu = FMU(controller_fmu, {"y": "q:slide.d"}, {"u": "lift"},
+                  {"kp": kp, "ki": ki, "r": goal})
+        r = cosimulate(_sim(), [fmu], 0.4, H)
+        gaps.append(np.abs(np.interp(te, r.t, r.q[:, 0]) - cont.q[:, 0]).max())
+    ratios = np.array(gaps[:-1]) / np.array(gaps[1:])
+    assert np.all((ratios > 1.6) & (ratios < 2.6)), gaps
+    assert gaps[-1] < 1e-3 * 0.03 * 10  # m: within a few per mille of the 3 cm move
+
+
 def test_the_fmus_parameters_take_effect(controller_fmu):
     runs = [cosimulate(_sim(), [FMU(controller_fmu, {"y": "q:slide.d"}, {"u": "lift"},
                                     {"kp": kp, "ki": 0.0, "r": S0 + 0.04})], 0.2, 5e-3)
