@@ -110,6 +110,26 @@ def build_mesh(geometry: SolidGeometry | BeamGeometry | MeshFileGeometry, name: 
 
 
 @contextlib.contextmanager
+def _signals_kept() -> Iterator[None]:
+    """Keep this process's SIGPIPE disposition across gmsh's initialisation, which resets
+    it to the default (terminate): Python ignores SIGPIPE and raises BrokenPipeError
+    instead, and after a mesh made in-process a write to a closed socket (a Dask worker
+    killed under a study's client) killed the whole process without a word. Restorable
+    only from the main thread (signal.signal's rule); meshing runs there."""
+    import signal
+    import threading
+
+    pipe = getattr(signal, "SIGPIPE", None)
+    main = threading.current_thread() is threading.main_thread()
+    before = signal.getsignal(pipe) if pipe is not None and main else None
+    try:
+        yield
+    finally:
+        if before is not None:
+            signal.signal(pipe, before)
+
+
+@contextlib.contextmanager
 def gmsh_session(name: str) -> Iterator[Any]:
     """Yield the gmsh module, initialised with a fresh model; finalise on exit.
 
@@ -124,7 +144,8 @@ def gmsh_session(name: str) -> Iterator[Any]:
         raise MeshError("gmsh is not installed: install pipeline[mesh]") from exc
     owned = not gmsh.isInitialized()
     if owned:
-        gmsh.initialize(readConfigFiles=False, interruptible=False)
+        with _signals_kept():
+            gmsh.initialize(readConfigFiles=False, interruptible=False)
     previous = None if owned else gmsh.model.getCurrent()
     try:
         gmsh.option.setNumber("General.Terminal", int(logger.isEnabledFor(logging.DEBUG)))

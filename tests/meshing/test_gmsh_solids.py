@@ -1,5 +1,7 @@
 """Solid recipes -> MeshData: valid meshes, node order, groups on the CAD surfaces."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -115,3 +117,31 @@ def test_mesh_is_deterministic():
     a, b = build_mesh(g, "a"), build_mesh(g, "b")
     np.testing.assert_array_equal(a.points, b.points)
     np.testing.assert_array_equal(a.cells["tetra10"], b.cells["tetra10"])
+
+
+def _sigpipe_ignored() -> bool:
+    with open("/proc/self/status") as fh:
+        mask = next(int(line.split()[1], 16) for line in fh if line.startswith("SigIgn"))
+    return bool(mask >> 12 & 1)  # bit n - 1 for signal n = 13
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").is_file(), reason="needs Linux's /proc")
+def test_meshing_in_this_process_keeps_sigpipe_ignored():
+    """gmsh's initialisation resets SIGPIPE to terminate: after a mesh made in-process, a
+    write to a closed socket (a study's Dask worker killed) killed the process silently
+    (found as a test session that ended with exit status 141 midway)."""
+    import signal
+    import socket
+
+    from pipeline.meshing.gmsh_build import gmsh_session
+
+    assert _sigpipe_ignored()
+    with gmsh_session("probe") as gmsh:
+        gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
+    assert _sigpipe_ignored() and signal.getsignal(signal.SIGPIPE) == signal.SIG_IGN
+    a, b = socket.socketpair()
+    b.close()
+    with pytest.raises(BrokenPipeError):  # raised, not a dead process
+        for _ in range(100):
+            a.send(b"x" * 65536)
+    a.close()
