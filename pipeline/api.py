@@ -34,7 +34,8 @@ Results
 Pictures
     :func:`machine_shapes` / :func:`shape_from_reduced`, :func:`render_machine`,
     :func:`render_positions`, :func:`animate_machine`, :func:`render_modes`,
-    :func:`write_vtk_series`, :func:`plot_panels`.
+    :func:`write_vtk_series`, :func:`plot_panels` (a PNG) or :func:`panels_figure` (a
+    Figure, for a notebook).
 Workflows and studies
     :func:`load_workflow`, :func:`build_machine`, :func:`run_workflow`, :func:`run_study`
     (mode-truncation and design studies on Dask, ``docs/studies.md``).
@@ -87,6 +88,7 @@ _HOMES = {
     "Curve": "pipeline.post.plots",
     "Panel": "pipeline.post.plots",
     "plot_panels": "pipeline.post.plots",
+    "panels_figure": "pipeline.post.plots",
     "render_modes": "pipeline.post.render",
     "Picture": "pipeline.post.scene",
     "Style": "pipeline.post.scene",
@@ -149,7 +151,7 @@ if TYPE_CHECKING:  # what the names are, for readers and type checkers
     from pipeline.kinematics.driver_table import Table
     from pipeline.kinematics.drivers import Harmonic, Ramp, SmoothStep
     from pipeline.kinematics.initial import initial_positions
-    from pipeline.post.plots import Curve, Panel, plot_panels
+    from pipeline.post.plots import Curve, Panel, panels_figure, plot_panels
     from pipeline.post.render import render_modes
     from pipeline.post.scene import (
         Picture,
@@ -218,7 +220,8 @@ __all__ = [
     "build_machine", "build_mechanism", "cosimulate", "dof_report",
     "effective_mass_fractions", "energies",
     "initial_positions", "kept_modes", "kinetostatics", "link_from_reduced", "load_link_spec",
-    "load_workflow", "machine_shapes", "marker_motion", "marker_positions", "plot_panels",
+    "load_workflow", "machine_shapes", "marker_motion", "marker_positions", "panels_figure",
+    "plot_panels",
     "principal_stresses", "reduce_link", "render_machine", "render_modes", "render_positions",
     "rigid_link", "run_study", "run_workflow", "series", "shape_from_reduced", "simulate",
     "static_equilibrium", "sweep", "vibration_modes", "von_mises", "write_vtk_series",

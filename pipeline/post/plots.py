@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+import io
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -34,7 +36,15 @@ class Panel:
 
 def plot_panels(path: str | Path, panels, *, suptitle: str | None = None,
                 ncols: int = 1) -> Path:
-    """PNG with one axes per panel (legend when a panel has more than one curve)."""
+    """PNG with one axes per panel (legend when a panel has more than one curve): the
+    figure of :func:`panels_figure`, written atomically; returns the path."""
+    return save_figure(panels_figure(panels, suptitle=suptitle, ncols=ncols), path)
+
+
+def panels_figure(panels, *, suptitle: str | None = None, ncols: int = 1):
+    """A matplotlib Figure with one axes per panel (legend when a panel has more than one
+    curve), made outside pyplot (:func:`new_figure`): a notebook shows it inline as the
+    cell's value, ``fig.savefig`` writes it; no process-wide state changes."""
     n = len(panels)
     nrows = int(np.ceil(n / ncols))
     fig = new_figure((7.5 * ncols, 3.4 * nrows + 0.6))
@@ -62,7 +72,7 @@ def plot_panels(path: str | Path, panels, *, suptitle: str | None = None,
         ax.set_visible(False)
     if suptitle:
         fig.suptitle(suptitle, fontsize=11)
-    return save_figure(fig, path)
+    return fig
 
 
 def _bars(ax, p: Panel) -> None:
@@ -80,10 +90,25 @@ def _bars(ax, p: Panel) -> None:
 def new_figure(size: tuple[float, float], dpi: int = 110):
     """A matplotlib Figure of ``size`` (inches) outside pyplot: drawing it changes no
     process-wide state (no backend switch, no figure left open in pyplot's list, so a
-    notebook's inline figures and a GUI session are left as they were)."""
+    notebook's inline figures and a GUI session are left as they were). A notebook shows
+    it as a cell's value (its ``_repr_png_``), with no backend set up for it."""
+    return _shown_figure()(figsize=size, dpi=dpi)
+
+
+@functools.cache
+def _shown_figure():
+    """The Figure class of :func:`new_figure` (matplotlib imported when first needed)."""
     from matplotlib.figure import Figure
 
-    return Figure(figsize=size, dpi=dpi)
+    class ShownFigure(Figure):
+        """A matplotlib Figure that shows itself in a notebook (IPython's rich display)."""
+
+        def _repr_png_(self) -> bytes:
+            buf = io.BytesIO()
+            self.savefig(buf, format="png", bbox_inches="tight")
+            return buf.getvalue()
+
+    return ShownFigure
 
 
 def save_figure(fig, path: str | Path) -> Path:
