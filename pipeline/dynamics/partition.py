@@ -233,9 +233,9 @@ def _solve_reduced(q, qd, B, Bp, c, terms, residual, J) -> ReducedState:
         try:
             qdd_I, qdd, lam = _reduced_solve(np.ascontiguousarray(B), np.ascontiguousarray(Bp),
                                              M, rhs, c)
-        except np.linalg.LinAlgError:  # a singular mass matrix: the caller names it
-            raise
-        except ValueError:  # non-finite entries
+        except ValueError:  # numba's LinAlgError too: singular, or non-finite entries
+            if all(np.isfinite(x).all() for x in (B, M, rhs, c)):
+                raise  # a singular mass matrix: the caller names it
             qdd_I = np.full(B.shape[1], np.nan)
             qdd, lam = np.full(q.shape[0], np.nan), np.full(Bp.shape[1], np.nan)
     return ReducedState(q, qd, qdd, qdd_I, B, terms, lam, residual, Bp, J)

@@ -124,11 +124,22 @@ def test_a_meshing_process_that_dies_is_one_error_and_the_caller_lives(tmp_path)
 
 
 def _children(pid: int) -> list[int]:
+    """The meshing processes among ``pid``'s children (a test session has others: a
+    multiprocessing resource tracker, which this test once killed instead)."""
     try:
         with open(f"/proc/{pid}/task/{pid}/children") as fh:
-            return [int(x) for x in fh.read().split()]
+            kids = [int(x) for x in fh.read().split()]
     except OSError:
         return []
+    out = []
+    for k in kids:
+        try:
+            with open(f"/proc/{k}/cmdline", "rb") as fh:
+                if b"pipeline.meshing.mesh_child" in fh.read():
+                    out.append(k)
+        except OSError:
+            continue
+    return out
 
 
 def test_errors_inside_the_child_keep_their_kind_and_message(tmp_path):
