@@ -38,7 +38,7 @@ from pipeline.core.progress import progress_counter
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["FMU", "SampledPID", "anti_windup_time", "cosimulate", "signal"]
+__all__ = ["FMU", "SampledPID", "cosimulate", "signal"]
 
 
 @dataclass(frozen=True)
@@ -58,22 +58,6 @@ class FMU:
         return _Slave(self, sim, t0, label)
 
 
-def anti_windup_time(kp: float, ki: float, kd: float, given: float | None = None) -> float:
-    """The back-calculation's tracking time T_t, s: ``given``, else sqrt(T_i T_d) with
-    T_i = k_p / k_i and T_d = k_d / k_p (Astrom & Hagglund), T_i without a derivative
-    term; 0 without integral action (nothing winds up).
-
-    >>> anti_windup_time(20.0, 40.0, 0.5)  # sqrt(0.5 * 0.025)
-    0.11180339887498948
-    """
-    if not ki:
-        return 0.0
-    if given is not None:
-        return float(given)
-    ti = kp / ki
-    return math.sqrt(ti * kd / kp) if kd and kp else ti or 1.0
-
-
 @dataclass(frozen=True)
 class SampledPID:
     """A digital PID controller beside the machine: every ``period`` T (s) it samples the
@@ -85,9 +69,10 @@ class SampledPID:
 
     held over [t_k, t_k + T) (zero-order hold): the derivative acts on the measurement (0 at
     the first sample), the integral is pulled back while the output is clipped
-    (back-calculation, T_t by :func:`anti_windup_time`). ``reference`` r(t): a number, a
-    driver or a table (its rate r' feeds ``feedforward`` k_ff). Units: the output's per
-    the measured signal's."""
+    (back-calculation, T_t by
+    :func:`pipeline.dynamics.forces.hydraulics.anti_windup_time`). ``reference`` r(t): a
+    number, a driver or a table (its rate r' feeds ``feedforward`` k_ff). Units: the
+    output's per the measured signal's."""
 
     measured: str
     output: str
@@ -141,6 +126,8 @@ class _Sampler:
                               f"input of the Simulator (its inputs: {sorted(sim.inputs)}; "
                               "declare it with Simulator(..., inputs=[...]))")
         signal(sim, spec.measured)  # an unknown signal: ConfigError before anything runs
+        from pipeline.dynamics.forces.hydraulics import anti_windup_time
+
         self.tracking = anti_windup_time(spec.kp, spec.ki, spec.kd, spec.tracking_time)
         self.k, self.x, self.y_last, self.u = 0, 0.0, None, 0.0
 

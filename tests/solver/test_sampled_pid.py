@@ -38,10 +38,10 @@ from test_hydraulic_cylinder import (
 )
 
 from pipeline.core.errors import ConfigError
-from pipeline.dynamics.forces.hydraulics import PID
+from pipeline.dynamics.forces.hydraulics import PID, anti_windup_time
 from pipeline.kinematics.drivers import SmoothStep
 from pipeline.solver import simulate
-from pipeline.solver.cosim import SampledPID, anti_windup_time, cosimulate
+from pipeline.solver.cosim import SampledPID, cosimulate
 from pipeline.solver.simulator import Simulator
 
 VISCOUS = 1e4  # N s/m: seal friction, so that the oil spring's ringing settles

@@ -83,8 +83,8 @@ from pipeline.core.errors import ConfigError
 from pipeline.dynamics.forces.base import LineElement
 from pipeline.dynamics.forces.markers import line_geometry, marker_point
 
-__all__ = ["PID", "HydraulicCylinder", "cylinder_force", "cylinder_rates",
-           "marker_measurement", "pid_law"]
+__all__ = ["PID", "HydraulicCylinder", "anti_windup_time", "cylinder_force",
+           "cylinder_rates", "marker_measurement", "pid_law"]
 
 #: bar: the scale of a pressure state (Newton's and the error estimate's units)
 PRESSURE_UNIT = 1e5
@@ -181,13 +181,25 @@ class PID:
 
     @property
     def tracking(self) -> float:
-        """T_t, s (0: no integral action, nothing to wind up)."""
-        if not self.ki:
-            return 0.0
-        if self.tracking_time is not None:
-            return float(self.tracking_time)
-        ti = self.kp / self.ki
-        return math.sqrt(ti * self.kd / self.kp) if self.kd and self.kp else ti or 1.0
+        """T_t, s (0: no integral action, nothing to wind up): :func:`anti_windup_time`."""
+        return anti_windup_time(self.kp, self.ki, self.kd, self.tracking_time)
+
+
+def anti_windup_time(kp: float, ki: float, kd: float, given: float | None = None) -> float:
+    """The back-calculation's tracking time T_t, s, of a PID (this module's, and the
+    sampled one beside the machine, :class:`pipeline.solver.cosim.SampledPID`): ``given``,
+    else sqrt(T_i T_d) with T_i = k_p / k_i and T_d = k_d / k_p (Astrom & Hagglund), T_i
+    without a derivative term; 0 without integral action (nothing winds up).
+
+    >>> anti_windup_time(20.0, 40.0, 0.5)  # sqrt(0.5 * 0.025)
+    0.11180339887498948
+    """
+    if not ki:
+        return 0.0
+    if given is not None:
+        return float(given)
+    ti = kp / ki
+    return math.sqrt(ti * kd / kp) if kd and kp else ti or 1.0
 
 
 @dataclass(frozen=True)
