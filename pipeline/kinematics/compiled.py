@@ -41,75 +41,19 @@ __all__ = ["CompiledMechanism", "CompiledSteps", "Evaluation", "StepValues", "co
 
 
 @dataclass(frozen=True)
-class CompiledMechanism:
-    """Flat arrays of a mechanism's steps (S steps, at most MM modes and KK motions each).
+class CompiledSteps:
+    """Flat arrays of S steps (at most MM modes and KK motions each): the form the tree,
+    the loops, a marker, a force element's point or a joint's frame are evaluated in.
 
     frm (S,) base link; n_modes (S,), eta (S, MM) modal coordinates, pose (S, 4, 4),
     dS (S, MM, 4, 4) shape derivatives; n_motions (S,), kind (S, KK) 0 rotation /
     1 translation, gen (S, KK, 4, 4) signed generators, gen2 their squares, qi (S, KK)
-    coordinate of each factor; tail (S, 4, 4); order (L - 1,) links in placement order
-    after the root, slot (L,) their step; loops (K, 2) steps of each loop's two sides;
-    depends (L, n) whether a link's pose depends on a coordinate (dA is zero elsewhere:
-    the derivative products are skipped there); loop_depends (K, n) the same for the
-    closure rows of each loop; fast (S,) the closed form of a rigid step with at most one
-    motion (-1 none, 0 rotation, 1 translation, 2 fixed; Step.fast), with its constant
-    matrices fastC (S, 3, 4, 4) = C0, C1, C2 and coordinate fastq (S,); second (S,)
-    whether the step's frame has second-order translation, hess (S, MM, MM, 3) its
-    d2r/deta_a deta_b (Frame.hess; a (1, 1, 1, 3) dummy when no frame has one).
+    coordinate of each factor; tail (S, 4, 4); fast (S,) the closed form of a rigid step
+    with at most one motion (-1 none, 0 rotation, 1 translation, 2 fixed; Step.fast), with
+    its constant matrices fastC (S, 3, 4, 4) = C0, C1, C2 and coordinate fastq (S,);
+    second (S,) whether the step's frame has second-order translation, hess (S, MM, MM,
+    3) its d2r/deta_a deta_b (Frame.hess; a (1, 1, 1, 3) dummy when no frame has one).
     """
-
-    n: int
-    n_links: int
-    root: int
-    frm: np.ndarray
-    n_modes: np.ndarray
-    eta: np.ndarray
-    pose: np.ndarray
-    dS: np.ndarray
-    n_motions: np.ndarray
-    kind: np.ndarray
-    gen: np.ndarray
-    gen2: np.ndarray
-    qi: np.ndarray
-    tail: np.ndarray
-    order: np.ndarray
-    slot: np.ndarray
-    loops: np.ndarray
-    depends: np.ndarray
-    loop_depends: np.ndarray
-    fast: np.ndarray
-    fastC: np.ndarray
-    fastq: np.ndarray
-    second: np.ndarray
-    hess: np.ndarray
-
-    def arrays(self) -> tuple:
-        """The arrays in the order of the kernels' arguments (after q, qd, rates)."""
-        return (self.n_links, self.root, self.frm, self.n_modes, self.eta, self.pose, self.dS,
-                self.n_motions, self.kind, self.gen, self.gen2, self.qi, self.tail, self.order,
-                self.slot, self.loops, self.depends, self.loop_depends, self.fast, self.fastC,
-                self.fastq, self.second, self.hess)
-
-
-@dataclass(frozen=True)
-class Evaluation:
-    """Poses and closure at one state: A (L, 4, 4), dA (L, n, 4, 4), Ad, Add (L, 4, 4) or
-    None without rates; r (6 K,), J (6 K, n), gamma (6 K,) or None without rates."""
-
-    A: np.ndarray
-    dA: np.ndarray
-    Ad: np.ndarray | None
-    Add: np.ndarray | None
-    r: np.ndarray
-    J: np.ndarray
-    gamma: np.ndarray | None
-
-
-@dataclass(frozen=True)
-class CompiledSteps:
-    """Flat arrays of some steps (the arrays of :class:`CompiledMechanism` that describe
-    steps, same meaning): the form a marker, a force element's point or a joint's frame is
-    evaluated in (:func:`step_values`)."""
 
     frm: np.ndarray
     n_modes: np.ndarray
@@ -133,6 +77,47 @@ class CompiledSteps:
         return (self.frm, self.n_modes, self.eta, self.pose, self.dS, self.n_motions,
                 self.kind, self.gen, self.gen2, self.qi, self.tail, self.fast, self.fastC,
                 self.fastq, self.second, self.hess)
+
+
+@dataclass(frozen=True)
+class CompiledMechanism:
+    """Flat arrays of a mechanism: its ``steps`` (:class:`CompiledSteps`, every step of
+    ``Mechanism.table``), order (L - 1,) links in placement order after the root, slot
+    (L,) their step; loops (K, 2) steps of each loop's two sides; depends (L, n) whether
+    a link's pose depends on a coordinate (dA is zero elsewhere: the derivative products
+    are skipped there); loop_depends (K, n) the same for the closure rows of each loop.
+    """
+
+    n: int
+    n_links: int
+    root: int
+    steps: CompiledSteps
+    order: np.ndarray
+    slot: np.ndarray
+    loops: np.ndarray
+    depends: np.ndarray
+    loop_depends: np.ndarray
+
+    def arrays(self) -> tuple:
+        """The arrays in the order of the kernels' arguments (after q, qd, rates)."""
+        s = self.steps
+        return (self.n_links, self.root, s.frm, s.n_modes, s.eta, s.pose, s.dS, s.n_motions,
+                s.kind, s.gen, s.gen2, s.qi, s.tail, self.order, self.slot, self.loops,
+                self.depends, self.loop_depends, s.fast, s.fastC, s.fastq, s.second, s.hess)
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """Poses and closure at one state: A (L, 4, 4), dA (L, n, 4, 4), Ad, Add (L, 4, 4) or
+    None without rates; r (6 K,), J (6 K, n), gamma (6 K,) or None without rates."""
+
+    A: np.ndarray
+    dA: np.ndarray
+    Ad: np.ndarray | None
+    Add: np.ndarray | None
+    r: np.ndarray
+    J: np.ndarray
+    gamma: np.ndarray | None
 
 
 def compile_steps(steps) -> CompiledSteps:
@@ -199,10 +184,8 @@ def compile_mechanism(mech) -> CompiledMechanism:
         for s in pair:
             loop_depends[kk] |= depends[steps[s].frm]
             loop_depends[kk, steps[s].local] = True
-    return CompiledMechanism(mech.n, len(mech.links), int(mech.placement[0]), cs.frm,
-                             cs.n_modes, cs.eta, cs.pose, cs.dS, cs.n_motions, cs.kind, cs.gen,
-                             cs.gen2, cs.qi, cs.tail, order, slot, loops, depends,
-                             loop_depends, cs.fast, cs.fastC, cs.fastq, cs.second, cs.hess)
+    return CompiledMechanism(mech.n, len(mech.links), int(mech.placement[0]), cs, order,
+                             slot, loops, depends, loop_depends)
 
 
 @dataclass(frozen=True)

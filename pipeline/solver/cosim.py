@@ -86,11 +86,9 @@ class SampledPID:
     feedforward: float = 0.0
 
     def __post_init__(self):
-        for key in ("kp", "ki", "kd", "feedforward"):
-            x = getattr(self, key)
-            if isinstance(x, bool) or not isinstance(x, int | float) or not x >= 0 \
-                    or not math.isfinite(x):
-                raise ConfigError(f"sampled PID: {key}: expected a gain >= 0, got {x!r}")
+        from pipeline.dynamics.forces.hydraulics import check_gains
+
+        check_gains(self, "sampled PID")
         for key in ("period", "tracking_time"):
             x = getattr(self, key)
             if (x is not None or key == "period") and (

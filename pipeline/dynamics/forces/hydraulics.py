@@ -83,7 +83,7 @@ from pipeline.core.errors import ConfigError
 from pipeline.dynamics.forces.base import LineElement
 from pipeline.dynamics.forces.markers import line_geometry, marker_point
 
-__all__ = ["PID", "HydraulicCylinder", "anti_windup_time", "cylinder_force",
+__all__ = ["PID", "HydraulicCylinder", "anti_windup_time", "check_gains", "cylinder_force",
            "cylinder_rates", "marker_measurement", "pid_law"]
 
 #: bar: the scale of a pressure state (Newton's and the error estimate's units)
@@ -142,11 +142,7 @@ class PID:
     feedforward: float = 0.0
 
     def __post_init__(self):
-        for key in ("kp", "ki", "kd", "feedforward"):
-            x = getattr(self, key)
-            if isinstance(x, bool) or not isinstance(x, int | float) or not x >= 0 \
-                    or not math.isfinite(x):
-                raise ConfigError(f"PID: {key}: expected a gain >= 0, got {x!r}")
+        check_gains(self, "PID")
         lo = self.output_limits
         if not (isinstance(lo, tuple | list) and len(lo) == 2
                 and all(isinstance(x, int | float) and not isinstance(x, bool) for x in lo)
@@ -183,6 +179,16 @@ class PID:
     def tracking(self) -> float:
         """T_t, s (0: no integral action, nothing to wind up): :func:`anti_windup_time`."""
         return anti_windup_time(self.kp, self.ki, self.kd, self.tracking_time)
+
+
+def check_gains(controller, what: str) -> None:
+    """A ConfigError naming ``what`` and the field unless the ``controller``'s kp, ki, kd
+    and feedforward are finite numbers >= 0 (this module's PID and the sampled one)."""
+    for key in ("kp", "ki", "kd", "feedforward"):
+        x = getattr(controller, key)
+        if isinstance(x, bool) or not isinstance(x, int | float) or not x >= 0 \
+                or not math.isfinite(x):
+            raise ConfigError(f"{what}: {key}: expected a gain >= 0, got {x!r}")
 
 
 def anti_windup_time(kp: float, ki: float, kd: float, given: float | None = None) -> float:
