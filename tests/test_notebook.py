@@ -20,6 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOK = ROOT / "docs" / "notebooks" / "main_job.ipynb"
 
 
+@pytest.mark.slow  # a Jupyter kernel running the main job quick (10 s)
 def test_the_main_job_notebook_runs_and_shows_its_figures_inline(tmp_path, monkeypatch):
     monkeypatch.setenv("PIPELINE_NOTEBOOK_QUICK", "1")
     monkeypatch.setenv("PIPELINE_NOTEBOOK_OUT", str(tmp_path / "out"))

@@ -150,6 +150,7 @@ def _stop(procs):
             p.kill()
 
 
+@pytest.mark.slow  # an external scheduler and two workers started and stopped (24 s)
 def test_scheduler_run_equals_local_run_bit_for_bit(local, links, tmp_path):
     folder, res = local
     address, sched, workers = _cluster(tmp_path)

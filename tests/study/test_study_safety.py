@@ -64,6 +64,7 @@ def test_a_study_and_a_run_of_one_name_do_not_overwrite_each_other(tmp_path, lin
         run_study(_study(tmp_path, [-0.8], name="links"), out_root=out, cache_dir=links)
 
 
+@pytest.mark.slow  # a study's client killed once its first case is in (7 s)
 def test_a_killed_client_loses_at_most_the_cases_it_was_running(tmp_path, links):
     """kill -9 of the study's own process once the first case is in the table: the table
     was written only at the end, so the rerun repeated every finished case. Now each
