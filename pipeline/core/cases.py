@@ -124,9 +124,8 @@ def quiet_distributed():
 
 def local_cluster(LocalCluster, workers: int):
     """A local cluster of ``workers`` quiet processes (one thread each, their housekeeping
-    slowed to :data:`WORKER_CONFIG`); a start that
-    fails (a worker process killed or out of memory as it comes up) is tried again, then
-    named."""
+    slowed to :data:`WORKER_CONFIG`); a start that fails (a worker process killed or out of
+    memory as it comes up) is tried again, then named."""
     import dask
 
     for attempt in range(CLUSTER_STARTS):

@@ -212,7 +212,8 @@ def step_values(cs: CompiledSteps, q: np.ndarray, A: np.ndarray, dA: np.ndarray 
     P, dP, Pd, Pdd = _values_kernel(
         q, np.ascontiguousarray(qd, dtype=float) if rates else np.zeros(n), rates, need_d,
         np.ascontiguousarray(A, dtype=float),
-        np.ascontiguousarray(dA, dtype=float) if need_d else np.zeros((L, n, 4, 4)),
+        # a pose alone: no coordinate to differentiate by (_place's dA loop is empty)
+        np.ascontiguousarray(dA, dtype=float) if need_d else np.zeros((L, 0, 4, 4)),
         np.ascontiguousarray(Ad, dtype=float) if rates else none,
         np.ascontiguousarray(Add, dtype=float) if rates else none, *cs.arrays())
     return StepValues(P, dP if need_d else None, Pd if rates else None,
@@ -533,7 +534,7 @@ def _values_kernel(q, qd, rates, need_d, A, dA, Ad, Add, frm, n_modes, eta, pose
     dP = np.zeros((S if need_d else 0, n, 4, 4))
     Pd = np.zeros((S, 4, 4))
     Pdd = np.zeros((S, 4, 4))
-    depends = np.full((A.shape[0], n), need_d)  # no dA products for a pose alone
+    depends = np.ones((A.shape[0], n), dtype=np.bool_)  # any link: dP from its dA
     M = np.zeros((4, 4))
     dMe = np.zeros((MM, 4, 4))
     dMx = np.zeros((KK, 4, 4))

@@ -53,6 +53,11 @@ class FMU:
     outputs: Mapping[str, str] = field(default_factory=dict)
     parameters: Mapping[str, float] = field(default_factory=dict)
 
+    @property
+    def targets(self) -> tuple[str, ...]:
+        """The Simulator inputs it drives."""
+        return tuple(self.outputs.values())
+
     def start(self, sim, t0: float, label: str, macro_step: float):
         """The FMU instantiated and initialised for a co-simulation (:class:`_Slave`)."""
         return _Slave(self, sim, t0, label)
@@ -101,6 +106,11 @@ class SampledPID:
                 for x in lo) and lo[0] < lo[1]):
             raise ConfigError(f"sampled PID: output_limits: expected [u_min, u_max], "
                               f"u_min < u_max, got {lo!r}")
+
+    @property
+    def targets(self) -> tuple[str, ...]:
+        """The Simulator input it drives."""
+        return (self.output,)
 
     def start(self, sim, t0: float, label: str, macro_step: float):
         """The running controller (:class:`_Sampler`) of a co-simulation."""
@@ -299,7 +309,7 @@ def cosimulate(sim, blocks: Sequence, t_end: float, macro_step: float,
     if not (np.isfinite(t_end) and t_end > sim.t):
         raise ConfigError(f"co-simulation: t_end: expected a time after the Simulator's "
                           f"{sim.t:g} s, got {t_end!r}")
-    driven = [target for b in blocks for target in _targets(b)]
+    driven = [target for b in blocks for target in b.targets]
     twice = sorted({x for x in driven if driven.count(x) > 1})
     if twice:
         raise ConfigError(f"co-simulation: {twice} driven by more than one block output")
@@ -324,11 +334,6 @@ def cosimulate(sim, blocks: Sequence, t_end: float, macro_step: float,
         for b in running:
             b.close()
     return sim.result(limits=limits)
-
-
-def _targets(block) -> list[str]:
-    """The Simulator inputs a block drives."""
-    return [block.output] if isinstance(block, SampledPID) else list(block.outputs.values())
 
 
 def _partial(r, message: str):

@@ -236,8 +236,7 @@ def _cosimulate(m: Machine, system, q0, a, limits, path):
             c.reference, wf.where(*path, "controllers", i, "reference"), wf.base_dir)
         blocks.append(SampledPID(c.measured, c.output, ref, c.kp, c.ki, c.kd, c.period,
                                  c.output_limits, c.tracking_time, c.feedforward))
-    targets = list(dict.fromkeys(x for f in a.fmus for x in f.outputs.values()))
-    targets += [c.output for c in a.controllers if c.output not in targets]
+    targets = list(dict.fromkeys(x for b in blocks for x in b.targets))
     macro = a.macro_step or min(c.period for c in a.controllers)
     try:
         sim = Simulator(system, q0, m.qd0, step=a.step, inputs=targets, rho_inf=a.rho_inf,

@@ -417,7 +417,7 @@ def _measured_marker(wf: Workflow, mech, measured: str, path: tuple) -> None:
 
     try:
         link, frame, _ = marker_measurement(measured)
-        mech.links[mech.link_index(link)].frame(frame)
+        mech.marker(link, frame)
     except ConfigError as exc:
         raise wf.error(*path, msg=str(exc)) from None
 

@@ -164,8 +164,8 @@ def _run_parallel(wf, base, tasks, cache, machines, cache_dir, rebuild, workers,
     return results
 
 
-def collect_cases(wf, base, tasks, cache_dir, rebuild, workers: int = 2,
-                  scheduler: str | None = None) -> list[AnalysisResult]:
+def collect_cases(wf, base, tasks, cache_dir, rebuild, workers: int = 2
+                  ) -> list[AnalysisResult]:
     """Run every (analysis, case) of ``tasks`` with the one case runner and gather the
     results in order. Each case's result is kept as it arrives: a case whose worker died
     (killed, out of memory) and could not be run again comes back failed, naming the
@@ -189,7 +189,7 @@ def collect_cases(wf, base, tasks, cache_dir, rebuild, workers: int = 2,
             return "lost", time.perf_counter() - t_sub
         return value.verdict, value.timings.get("total", time.perf_counter() - t_sub)
 
-    run_cases(jobs, title=wf.name, record=record, workers=workers, scheduler=scheduler)
+    run_cases(jobs, title=wf.name, record=record, workers=workers)
     return done
 
 
@@ -197,8 +197,8 @@ def case_outcome(wf: Workflow, base: Machine, a, label: str, value, error):
     """The result of case ``label`` of analysis spec ``a`` from what its worker returned
     (``value``) or raised (``error``): a case lost to the cluster (its workers died,
     or none was left to run it: :class:`~pipeline.core.cases.CaseLost`) is a failed,
-    empty result naming the cause (logged as a warning); the case's own error (bad input) is raised here as
-    it was raised there."""
+    empty result naming the cause (logged as a warning); the case's own error (bad input)
+    is raised here as it was raised there."""
     if error is None:
         return value
     if not isinstance(error, CaseLost):

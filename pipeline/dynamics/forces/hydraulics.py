@@ -395,7 +395,7 @@ class HydraulicCylinder(LineElement):
         try:
             on = marker_measurement(self.command.measured)
             if on is not None:
-                mech.links[mech.link_index(on[0])].frame(on[1])
+                mech.marker(on[0], on[1])  # the link and its frame exist
                 return _ON_MARKER
             return mech.index(self.command.measured)
         except ConfigError as exc:
