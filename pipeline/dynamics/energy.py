@@ -55,7 +55,7 @@ def energies(system, tree, q: np.ndarray, qd: np.ndarray,
     ``forces`` sums the potential energy of the force elements (springs). ``M``: the
     mass matrix at q (n, n) if the caller has it (else computed: :func:`kinetic_energy`).
     """
-    Vf = sum(float(f.potential_energy(system, tree, q)) for f in system.forces)
+    Vf = system.compiled_forces.potential(tree, q)
     T = kinetic_energy(system, tree, q, qd) if M is None else 0.5 * float(qd @ M @ qd)
     return {"kinetic": T,
             "gravity": gravity_potential(system, tree, q),

@@ -2,8 +2,8 @@
 
 rhs = Q_gravity + Q_elastic + Q_damping + Q_forces - h, with
 Q_elastic = -K eta and Q_damping = -D eta' per flexible body and Q_forces the
-virtual work of the system's force elements (``generalized_force(system,
-tree, q, qd, t)``). Closed loops are reduced by :mod:`pipeline.dynamics.partition`.
+virtual work of the system's force elements (their compiled form,
+``System.compiled_forces``). Closed loops are reduced by :mod:`pipeline.dynamics.partition`.
 
 Examples
 --------
@@ -26,7 +26,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.dynamics.compiled import inertia_terms
-from pipeline.dynamics.forces.base import element_forces
 from pipeline.kinematics.poses import TreeState, evaluate_tree
 
 __all__ = ["EquationTerms", "elastic_forces", "equation_terms", "equations", "state_rates"]
@@ -60,18 +59,6 @@ def elastic_forces(system, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, n
     return -(K @ q), -(D @ qd)
 
 
-def _force_elements(system, tree, q, qd, t, z=None):
-    """Q of every force element and its non-conservative part (not -dV/dq); z: the
-    elements' states (System.state_slices), if the analysis carries them."""
-    n = system.mechanism.n
-    Qf, Qnc = np.zeros(n), np.zeros(n)
-    for f in system.forces:
-        Q, nc = element_forces(system, f, tree, q, qd, t, z)
-        Qf += Q
-        Qnc += nc
-    return Qf, Qnc
-
-
 def equation_terms(system, q: np.ndarray, qd: np.ndarray, t: float,
                    tree: TreeState | None = None, inertia: tuple | None = None,
                    z: np.ndarray | None = None) -> EquationTerms:
@@ -95,7 +82,8 @@ def equation_terms(system, q: np.ndarray, qd: np.ndarray, t: float,
     else:  # M, h and gravity in one compiled pass (pipeline.dynamics.compiled)
         M, h, Qg = inertia_terms(system.compiled_masses, tree, q, qd, system.gravity4)
     Qe, Qd = elastic_forces(system, q, qd)
-    Qf, Qnc = _force_elements(system, tree, q, qd, t, z)
+    # every force element and its non-conservative part (not -dV/dq), compiled
+    Qf, Qnc = system.compiled_forces.forces(tree, q, qd, t, z)
     return EquationTerms(M, h, Qg, Qe, Qd, Qf, Qd + Qnc, tree)
 
 
@@ -105,10 +93,7 @@ def state_rates(system, q: np.ndarray, qd: np.ndarray, t: float, z: np.ndarray,
     q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
     if tree is None:
         tree = evaluate_tree(system.mechanism, q, qd, derivatives=True)
-    out = np.zeros(len(z))
-    for f, sl in system.state_slices:
-        out[sl] = f.state_rates(system, tree, q, qd, t, z[sl])
-    return out
+    return system.compiled_forces.rates(tree, q, qd, t, z)
 
 
 def equations(system, q: np.ndarray, qd: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:

@@ -120,10 +120,8 @@ def _damping(system, q, B, t, z=None):
     tree = evaluate_tree(system.mechanism, q)
 
     def Qv(qd):
-        Q = elastic_forces(system, q, qd)[1]
-        for f in system.forces:
-            Q = Q + f.generalized_force(system, tree, q, qd, t, *system.states_of(f, z))
-        return Q
+        return elastic_forces(system, q, qd)[1] \
+            + system.compiled_forces.forces(tree, q, qd, t, z)[0]
 
     h = 1e-6
     cols = [(Qv(h * b) - Qv(-h * b)) / (2 * h) for b in B.T]

@@ -95,10 +95,8 @@ def static_forces(system, q: np.ndarray, t: float = 0.0, qd: np.ndarray | None =
     q = np.asarray(q, dtype=float)
     qd = np.zeros_like(q) if qd is None else np.asarray(qd, dtype=float)
     tree = evaluate_tree(system.mechanism, q)
-    Q = gravity_force(system, tree, q) + elastic_forces(system, q, qd)[0]
-    for f in system.forces:
-        Q = Q + f.generalized_force(system, tree, q, qd, t, *system.states_of(f, z))
-    return Q
+    return gravity_force(system, tree, q) + elastic_forces(system, q, qd)[0] \
+        + system.compiled_forces.forces(tree, q, qd, t, z)[0]
 
 
 def reduced_coordinates(system, q: np.ndarray, hold=()) -> tuple[np.ndarray, ReducedCoordinates]:

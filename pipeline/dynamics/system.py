@@ -195,6 +195,13 @@ class System:
         from pipeline.dynamics.compiled import compile_masses  # numba loads only if used
         return compile_masses(self)
 
+    @cached_property
+    def compiled_forces(self):
+        """The force elements in compiled form (:class:`pipeline.dynamics.forces.compiled.
+        CompiledForces`): their physics, once, for every analysis (built on first use)."""
+        from pipeline.dynamics.forces.compiled import CompiledForces  # numba: only if used
+        return CompiledForces.of(self)
+
     @cached_property  # used at every evaluation of the equations of motion
     def mass_links(self) -> tuple[tuple[int, BodyMass, np.ndarray], ...]:
         """(link index, BodyMass, modal indices in q) of every link that has mass."""

@@ -2,7 +2,7 @@
 element of every compiled kind (tests/solver/test_compiled_step.py, ``_every_kind``),
 0.5 s at a fixed 1 ms generalised-alpha step, CPU microseconds per step with the compiled
 kernels and with the same elements as classes without a compiled form (a user's own
-elements: the compiled step calls their numpy methods back), interleaved pairs ->
+elements: the compiled step calls their numpy oracle back), interleaved pairs ->
 ``output/bench/force_elements.json``. Not a timed test."""
 
 from __future__ import annotations

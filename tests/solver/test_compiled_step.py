@@ -202,23 +202,33 @@ def test_outputs_recorded_inside_a_stretch_equal_those_recorded_step_by_step():
 
 
 def test_every_force_element_class_has_a_compiled_form():
-    """Each element class the workflows offer has a kind, a pack and kernels, and the
-    kinds are distinct: adding a class without them fails here."""
+    """Each element class the workflows offer has a kind, a pack and kernels (a push for
+    a line element, else a force; a potential; rates where it has states), and the kinds
+    are distinct: adding a class without them fails here."""
+    from pipeline.dynamics.forces.base import CompiledElement, LineElement
     from pipeline.dynamics.forces.compiled import KERNELS
 
     for name, cls in FORCES.items():
-        assert cls.KIND in KERNELS and cls in KERNELS[cls.KIND][0], name
+        assert cls.KIND in KERNELS and cls in KERNELS[cls.KIND].classes, name
+        assert issubclass(cls, CompiledElement), name
         assert "pack" in vars(cls) or any("pack" in vars(b) for b in cls.__mro__[1:-1]), name
-    classes = [c for entry in KERNELS.values() for c in entry[0]]
+        k = KERNELS[cls.KIND]
+        assert k.potential is not None, name
+        assert (k.push is not None) if issubclass(cls, LineElement) else \
+            (k.force is not None and k.push is None), name
+        assert (k.rates is not None) == bool(cls.STATES), name
+        on_coordinate = "coordinate" in {f.name for f in fields(cls)}
+        assert k.push is not None or (k.loads is None) == on_coordinate, name
+    classes = [c for entry in KERNELS.values() for c in entry.classes]
     assert len(classes) == len(set(classes)) and set(FORCES.values()) <= set(classes)
 
 
 def _in_python(element):
-    """The same element as a class of its own without a compiled form: its numpy methods
-    are called back from the compiled step."""
-    cls = type(element)
-    twin = type(f"Python{cls.__name__}", (cls,), {"__module__": __name__})
-    return twin(**{f.name: getattr(element, f.name) for f in fields(element)})
+    """The same element evaluated by the numpy oracle (tests/dynamics/forces_numpy.py) as
+    an element without a compiled form: called back from the compiled step."""
+    from forces_numpy import NumpyElement
+
+    return NumpyElement.of(element)
 
 
 def _step_both(a_system, b_system, q0, qd0, h, steps, z=None):

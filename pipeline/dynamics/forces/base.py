@@ -39,10 +39,11 @@ Contract of a :class:`ForceElement` subclass (thesis eqs. 4.148-4.174, DESIGN §
    once per step, and a stepping API's input by the element's name replaces it
    (``with_input``; a controlled cylinder's input is its controller's reference).
 
-Subclasses implement ``_force(system, tree, q, qd, t)``; the public methods
-check the shapes once. The helpers :func:`marker_pose`, :func:`marker_point`
-and :func:`marker_twist` give a marker's pose, a point on it with dR/dq and
-velocity, and the angular-velocity Jacobian of its frame.
+A user's own element subclasses :class:`ForceElement` and implements ``_force(system, tree,
+q, qd, t)`` (and ``loads``); the public methods check the shapes once. The helpers
+:func:`marker_pose` and :func:`marker_point` give a marker's pose and a point on it with
+dR/dq and velocity. The built-in elements are :class:`CompiledElement`: their physics is
+their compiled kernels, once.
 """
 
 from __future__ import annotations
@@ -55,9 +56,8 @@ import numpy as np
 from pipeline.core.errors import ConfigError
 from pipeline.kinematics.poses import step_pose, step_value
 
-__all__ = ["ForceElement", "LineElement", "Load", "MarkerPoint", "check_coordinate",
-           "check_marker", "element_forces", "marker_point", "marker_pose", "marker_twist",
-           "unit_jacobian"]
+__all__ = ["CompiledElement", "ForceElement", "LineElement", "Load", "MarkerPoint",
+           "check_coordinate", "check_marker", "element_forces", "marker_point", "marker_pose"]
 
 
 @dataclass(frozen=True)
@@ -93,10 +93,6 @@ class Load:
     torque: np.ndarray
 
 
-def point_load(link: str, point, force) -> Load:
-    return Load(link, np.asarray(point, float), np.asarray(force, float), np.zeros(3))
-
-
 def marker_pose(system, link: str, frame: str, tree, q: np.ndarray) -> np.ndarray:
     """(4, 4) global pose of marker ``frame`` on ``link`` (A_link S_frame(eta))."""
     step = system.mechanism.marker(link, frame)
@@ -116,28 +112,6 @@ def marker_point(system, link: str, frame: str, tree, q: np.ndarray,
     sv = step_value(step, tree.A, tree.dA, None, None, q, None, need_d=True)
     p = np.array([0.0, 0.0, 0.0, 1.0]) if offset is None else np.append(offset, 1.0)
     return MarkerPoint((sv.P @ p)[:3], (sv.dP @ p)[:, :3], sv.P, sv.dP)
-
-
-def marker_twist(point: MarkerPoint) -> np.ndarray:
-    """(n, 3) angular velocity of the marker frame per unit qd_i, ground axes, rad.
-
-    From [w_i]x = dR/dq_i R^T (R the frame's rotation; exact for rigid frames,
-    and the small-rotation rate of a flexible one).
-    """
-    Om = point.dP[:, :3, :3] @ point.P[:3, :3].T
-    return 0.5 * np.stack([Om[:, 2, 1] - Om[:, 1, 2], Om[:, 0, 2] - Om[:, 2, 0],
-                           Om[:, 1, 0] - Om[:, 0, 1]], axis=1)
-
-
-def unit_jacobian(a: MarkerPoint, b: MarkerPoint, name: str):
-    """Distance l = |R_b - R_a|, unit vector u (a -> b) and dl/dq (n,)."""
-    d = b.R - a.R
-    length = float(np.linalg.norm(d))
-    if length < 1e-12:
-        raise ConfigError(f"force element '{name}': the two markers coincide (distance "
-                          f"{length:.3e} m); the line of action is undefined")
-    u = d / length
-    return length, u, (b.dR - a.dR) @ u
 
 
 def check_marker(system, marker, name: str, field: str) -> tuple[str, str]:
@@ -233,8 +207,11 @@ class ForceElement:
         """Physical loads (ground axes) at (q, qd, t); see the contract, rule 5."""
         raise NotImplementedError(f"force element '{self.name}' does not list its loads")
 
-    def _force(self, system, tree, q, qd, t):  # pragma: no cover - abstract
-        raise NotImplementedError
+    def _force(self, system, tree, q, qd, t):
+        raise NotImplementedError(
+            f"force element '{self.name}' ({type(self).__name__}) has no compiled form and "
+            f"no _force method: a class of your own implements _force (and loads); "
+            f"docs/force_elements.md")
 
 
 def element_forces(system, f, tree, q, qd, t: float, z=None) -> tuple[np.ndarray, np.ndarray]:
@@ -251,9 +228,43 @@ def element_forces(system, f, tree, q, qd, t: float, z=None) -> tuple[np.ndarray
     return Q, Qnc
 
 
+class CompiledElement(ForceElement):
+    """Base of the built-in elements: their physics is written once, as the compiled
+    kernels of their module (:mod:`pipeline.dynamics.forces.compiled`), and their methods
+    evaluate those kernels (``system.compiled_forces``; the numpy form of each is the
+    tests' oracle, ``tests/dynamics/forces_numpy.py``). A subclass a user makes of one is
+    an element without a compiled form and implements ``_force`` itself (contract)."""
+
+    def _terms(self, system, tree, q, qd, t, z):
+        q = np.asarray(q, dtype=float)
+        qd = np.zeros_like(q) if qd is None else np.asarray(qd, dtype=float)
+        return system.compiled_forces.element_forces(self, tree, q, qd, float(t), z)
+
+    def generalized_force(self, system, tree, q, qd, t: float, z=None) -> np.ndarray:
+        return self._terms(system, tree, q, qd, t, z)[0]
+
+    def nonconservative_force(self, system, tree, q, qd, t: float, z=None) -> np.ndarray:
+        return self._terms(system, tree, q, qd, t, z)[1]
+
+    def potential_energy(self, system, tree, q) -> float:
+        return system.compiled_forces.element_potential(self, tree, np.asarray(q, float))
+
+    def loads(self, system, tree, q, qd, t: float, z=None) -> tuple[Load, ...]:
+        q = np.asarray(q, dtype=float)
+        qd = np.zeros_like(q) if qd is None else np.asarray(qd, dtype=float)
+        return system.compiled_forces.element_loads(self, tree, q, qd, float(t), z)
+
+    def state_rates(self, system, tree, q, qd, t: float, z) -> np.ndarray:
+        """(k,) the rates of the element's own states z (k,) at (q, qd, t)."""
+        q = np.asarray(q, dtype=float)
+        return system.compiled_forces.element_rates(self, tree, q, np.asarray(qd, float),
+                                                    float(t), z)
+
+
 class LineElement(ForceElement):
     """Base of the elements acting along the line from ``marker_a`` to ``marker_b`` (a
-    spring-damper, a line force, a hydraulic cylinder): their validation and geometry."""
+    spring-damper, a line force, a hydraulic cylinder): their validation. Their compiled
+    form is a push along the line (:func:`pipeline.dynamics.forces.compiled.line_push`)."""
 
     marker_a: tuple[str, str]
     marker_b: tuple[str, str]
@@ -261,15 +272,3 @@ class LineElement(ForceElement):
     def validate(self, system) -> None:
         check_marker(system, self.marker_a, self.name, "marker_a")
         check_marker(system, self.marker_b, self.name, "marker_b")
-
-    def line(self, system, tree, q):
-        """(the two MarkerPoints a, b, the length l (m), the unit vector u (3,) from a to b,
-        dl/dq (n,)) at q (tree: TreeState at q with dA)."""
-        a = marker_point(system, *self.marker_a, tree, q)
-        b = marker_point(system, *self.marker_b, tree, q)
-        return (a, b, *unit_jacobian(a, b, self.name))
-
-    def line_loads(self, system, tree, q, f: float) -> tuple[Load, Load]:
-        """The loads of a force f (N) pushing the markers apart (f < 0: a tension)."""
-        a, b, _, u, _ = self.line(system, tree, q)
-        return (point_load(self.marker_a[0], a.R, -f * u), point_load(self.marker_b[0], b.R, f * u))

@@ -1,19 +1,28 @@
 """The force elements of a system in compiled form: packed into one :class:`~pipeline.
-dynamics.forces.markers.ForceData` and evaluated by the kernels their own modules define.
+dynamics.forces.markers.ForceData` and evaluated by the kernels their own modules define:
+the physics of every built-in element, once. The compiled step calls the dispatchers below;
+the element classes' methods, statics, linearisation, kinetostatics and the energies
+evaluate the same kernels through :class:`CompiledForces` (``System.compiled_forces``).
 
 Every built-in element class declares its ``KIND`` and ``pack(mech, markers)`` (its rows of
-the flat data) next to its numpy methods, and the module defines its compiled kernels;
-:data:`KERNELS` names them per kind, and the two dispatchers below call them. A new element
-kind adds its class with ``KIND``, ``pack`` and its two kernels in its module (three with
-states of its own: their rates), and one branch in each dispatcher (numba calls compiled
-functions only by name);
-``tests/solver/test_compiled_step.py`` fails for a built-in element class without them.
+the flat data), and its module defines its kernels; :data:`KERNELS` names them per kind. A
+line element (its force along the line between two markers) gives its push (the force
+driving the markers apart and its non-conservative part), from which its generalized
+force and loads follow here; any other gives its force and its loads. Each gives its
+potential, and an element with states of its own their rates. A new element kind adds its
+class and kernels in its module, its :data:`KERNELS` entry, and one branch in each
+dispatcher it needs (numba calls compiled functions only by name);
+``tests/solver/test_compiled_step.py`` fails for a built-in element class without them,
+and ``tests/dynamics/test_forces_oracle.py`` compares every kernel with its numpy oracle.
 An element without a compiled form (a user's own class) is packed as
 :data:`~pipeline.dynamics.forces.python_elements.PYTHON_KIND`: the dispatchers call its
 numpy methods back (:mod:`.python_elements`), inside the same compiled step.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit, objmode
@@ -23,11 +32,13 @@ from pipeline.dynamics.forces import hydraulics as H
 from pipeline.dynamics.forces import loads as L
 from pipeline.dynamics.forces import python_elements as P
 from pipeline.dynamics.forces import springs as S
+from pipeline.dynamics.forces.base import ForceElement, Load
 from pipeline.dynamics.forces.loads import history_value
-from pipeline.dynamics.forces.markers import ForceData, MarkerTable
+from pipeline.dynamics.forces.markers import ForceData, MarkerTable, line_geometry, line_loads
 
-__all__ = ["KERNELS", "compile_forces", "force_factors", "generalized_forces", "has_kernels",
-           "potential", "state_rates", "uncompiled"]
+__all__ = ["KERNELS", "CompiledForces", "Kernels", "compile_forces", "element_force",
+           "force_factors", "generalized_forces", "has_kernels", "line_push", "potential",
+           "state_rates", "uncompiled"]
 
 JOINT_SPRING = S.JointSpringDamper.KIND
 COORDINATE_FORCE = L.JointForce.KIND
@@ -40,27 +51,44 @@ TORQUE = L.Torque.KIND
 HYDRAULIC_CYLINDER = H.HydraulicCylinder.KIND
 PYTHON_KIND = P.PYTHON_KIND
 
-#: kind -> (element classes, force kernel, potential kernel[, state-rate kernel]): an
-#: element with states of its own (contract rule 7) has its rates' kernel, and its force
-#: kernel takes the states z after v
+
+class Kernels(NamedTuple):
+    """The compiled form of one kind: its element classes and kernels (module docstring):
+    ``push`` for a line element, ``force`` and ``loads`` (None: acts on a coordinate, no
+    loads of its own) for any other; ``rates`` for an element with states of its own."""
+
+    classes: tuple
+    potential: Any
+    push: Any = None
+    force: Any = None
+    loads: Any = None
+    rates: Any = None
+
+
+#: kind -> its :class:`Kernels`
 KERNELS = {
-    JOINT_SPRING: ((S.JointSpringDamper,), S.joint_spring_force, S.joint_spring_potential),
-    COORDINATE_FORCE: ((L.JointForce, L.ForceCylinder), L.coordinate_force,
-                       L.coordinate_potential),
-    LINE_SPRING: ((S.SpringDamper,), S.line_spring_force, S.line_spring_potential),
-    POINT_FORCE: ((L.PointForce,), L.point_force, L.point_potential),
-    TABLE_SPRING: ((S.TableSpringDamper,), S.table_spring_force, S.table_spring_potential),
-    FOLLOWER_FORCE: ((L.FollowerForce,), L.follower_force, L.no_potential),
-    LINE_FORCE: ((L.LineForce,), L.line_force, L.line_potential),
-    TORQUE: ((L.Torque,), L.torque, L.no_potential),
-    HYDRAULIC_CYLINDER: ((H.HydraulicCylinder,), H.cylinder_force, L.no_potential,
-                         H.cylinder_rates),
+    JOINT_SPRING: Kernels((S.JointSpringDamper,), S.joint_spring_potential,
+                          force=S.joint_spring_force),
+    COORDINATE_FORCE: Kernels((L.JointForce, L.ForceCylinder), L.coordinate_potential,
+                              force=L.coordinate_force),
+    LINE_SPRING: Kernels((S.SpringDamper,), S.line_spring_potential, push=S.line_spring_push),
+    POINT_FORCE: Kernels((L.PointForce,), L.point_potential, force=L.point_force,
+                         loads=L.point_loads),
+    TABLE_SPRING: Kernels((S.TableSpringDamper,), S.table_spring_potential,
+                          push=S.table_spring_push),
+    FOLLOWER_FORCE: Kernels((L.FollowerForce,), L.no_potential, force=L.follower_force,
+                            loads=L.follower_loads),
+    LINE_FORCE: Kernels((L.LineForce,), L.line_potential, push=L.line_force_push),
+    TORQUE: Kernels((L.Torque,), L.no_potential, force=L.torque, loads=L.torque_loads),
+    HYDRAULIC_CYLINDER: Kernels((H.HydraulicCylinder,), L.no_potential, push=H.cylinder_push,
+                                rates=H.cylinder_rates),
 }
 
 
 def has_kernels(f) -> bool:
     """Does force element ``f`` have a compiled form (its exact class registered)?"""
-    return type(f) in KERNELS.get(getattr(type(f), "KIND", None), ((),))[0]
+    entry = KERNELS.get(getattr(type(f), "KIND", None))
+    return entry is not None and type(f) in entry.classes
 
 
 def uncompiled(forces) -> list[str]:
@@ -68,16 +96,22 @@ def uncompiled(forces) -> list[str]:
     return [getattr(f, "name", type(f).__name__) for f in forces if not has_kernels(f)]
 
 
-def compile_forces(system) -> tuple[ForceData, tuple]:
+def compile_forces(system, forces=None) -> tuple[ForceData, tuple]:
     """(the flat data of ``system.forces``, each element's history, None, or
-    :data:`~.python_elements.TIME` for an element without a compiled form)."""
+    :data:`~.python_elements.TIME` for an element without a compiled form). ``forces``:
+    these elements instead, on their own (their states first in z, in order)."""
     mech = system.mechanism
     markers = MarkerTable(mech)
     kinds, ints, pars, cons, tables, hist = [], [], [], [], [], []
     rows = 0
-    offsets = {id(f): sl.start for f, sl in system.state_slices}
+    if forces is None:
+        forces = system.forces
+        offsets = {id(f): sl.start for f, sl in system.state_slices}
+    else:
+        sizes = [len(getattr(f, "STATES", ())) for f in forces]
+        offsets = {id(f): int(sum(sizes[:k])) for k, f in enumerate(forces) if sizes[k]}
     python = []  # (row, element) of the elements evaluated by their numpy methods
-    for f in system.forces:
+    for f in forces:
         if not has_kernels(f):
             python.append((len(kinds), f))
             kinds.append(PYTHON_KIND)
@@ -128,46 +162,103 @@ def force_factors(histories: tuple, times: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
+def line_push(e, z, length, rate, factor, d):
+    """(push, its non-conservative part), N, of line element e at its length (m) and rate
+    (m/s); kind not a line element's: (nan, nan)."""
+    kind = d.kind[e]
+    if kind == LINE_SPRING:
+        return S.line_spring_push(e, length, rate, d)
+    elif kind == TABLE_SPRING:
+        return S.table_spring_push(e, length, rate, d)
+    elif kind == LINE_FORCE:
+        return L.line_force_push(e, factor, d)
+    elif kind == HYDRAULIC_CYLINDER:
+        return H.cylinder_push(e, z, length, rate, d)
+    return np.nan, np.nan
+
+
+@njit(cache=True)
+def _is_line(kind):
+    return kind == LINE_SPRING or kind == TABLE_SPRING or kind == LINE_FORCE \
+        or kind == HYDRAULIC_CYLINDER
+
+
+@njit(cache=True)
+def element_force(e, q, v, z, A, dA, factor, d, Q, Qnc):
+    """Add element e's generalized force to Q (n,) and its non-conservative part to Qnc
+    (n,) at (q, v) and the elements' states z (nz,) with the link poses A, dA and the
+    history factors (2F,)."""
+    kind = d.kind[e]
+    if _is_line(kind):
+        length, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
+        f, fnc = line_push(e, z, length, dl @ v, factor, d)
+        for i in range(q.shape[0]):
+            Q[i] += f * dl[i]
+            Qnc[i] += fnc * dl[i]
+    elif kind == JOINT_SPRING:
+        S.joint_spring_force(e, q, v, A, dA, factor, d, Q, Qnc)
+    elif kind == COORDINATE_FORCE:
+        L.coordinate_force(e, q, v, A, dA, factor, d, Q, Qnc)
+    elif kind == POINT_FORCE:
+        L.point_force(e, q, v, A, dA, factor, d, Q, Qnc)
+    elif kind == FOLLOWER_FORCE:
+        L.follower_force(e, q, v, A, dA, factor, d, Q, Qnc)
+    elif kind == TORQUE:
+        L.torque(e, q, v, A, dA, factor, d, Q, Qnc)
+    elif kind == PYTHON_KIND:
+        key, t = d.ints[e, 0], factor[e]
+        with objmode():
+            P.element_force(key, q, v, z, A, dA, t, Q, Qnc)
+
+
+@njit(cache=True)
 def generalized_forces(q, v, z, A, dA, factor, d, Q, Qnc):
     """Add every element's generalized force to Q (n,) and its non-conservative part to
-    Qnc (n,) at (q, v) and the elements' states z (nz,) with the link poses A, dA and the
-    history factors (F,)."""
+    Qnc (n,) (:func:`element_force`)."""
     for e in range(d.kind.shape[0]):
-        kind = d.kind[e]
-        if kind == JOINT_SPRING:
-            S.joint_spring_force(e, q, v, A, dA, factor, d, Q, Qnc)
-        elif kind == COORDINATE_FORCE:
-            L.coordinate_force(e, q, v, A, dA, factor, d, Q, Qnc)
-        elif kind == LINE_SPRING:
-            S.line_spring_force(e, q, v, A, dA, factor, d, Q, Qnc)
-        elif kind == POINT_FORCE:
-            L.point_force(e, q, v, A, dA, factor, d, Q, Qnc)
-        elif kind == TABLE_SPRING:
-            S.table_spring_force(e, q, v, A, dA, factor, d, Q, Qnc)
-        elif kind == FOLLOWER_FORCE:
-            L.follower_force(e, q, v, A, dA, factor, d, Q, Qnc)
-        elif kind == LINE_FORCE:
-            L.line_force(e, q, v, A, dA, factor, d, Q, Qnc)
-        elif kind == TORQUE:
-            L.torque(e, q, v, A, dA, factor, d, Q, Qnc)
-        elif kind == HYDRAULIC_CYLINDER:
-            H.cylinder_force(e, q, v, z, A, dA, factor, d, Q, Qnc)
-        elif kind == PYTHON_KIND:
-            key, t = d.ints[e, 0], factor[e]
-            with objmode():
-                P.element_force(key, q, v, z, A, dA, t, Q, Qnc)
+        element_force(e, q, v, z, A, dA, factor, d, Q, Qnc)
+
+
+@njit(cache=True)
+def element_rates(e, q, v, z, A, dA, factor, d, zd):
+    """Write the rates of element e's own states into zd (nz,) at (q, v, z)."""
+    if d.kind[e] == HYDRAULIC_CYLINDER:
+        H.cylinder_rates(e, q, v, z, A, dA, factor, d, zd)
+    elif d.kind[e] == PYTHON_KIND and d.ints[e, 4] >= 0:
+        key, t = d.ints[e, 0], factor[e]
+        with objmode():
+            P.element_rates(key, q, v, z, A, dA, t, zd)
 
 
 @njit(cache=True)
 def state_rates(q, v, z, A, dA, factor, d, zd):
     """zd (nz,) = the rates of the elements' own states at (q, v, z)."""
     for e in range(d.kind.shape[0]):
-        if d.kind[e] == HYDRAULIC_CYLINDER:
-            H.cylinder_rates(e, q, v, z, A, dA, factor, d, zd)
-        elif d.kind[e] == PYTHON_KIND and d.ints[e, 4] >= 0:
-            key, t = d.ints[e, 0], factor[e]
-            with objmode():
-                P.element_rates(key, q, v, z, A, dA, t, zd)
+        element_rates(e, q, v, z, A, dA, factor, d, zd)
+
+
+@njit(cache=True)
+def element_potential(e, q, A, dA, d):
+    """Potential energy (J) of element e's conservative part."""
+    kind = d.kind[e]
+    if kind == JOINT_SPRING:
+        return S.joint_spring_potential(e, q, A, dA, d)
+    elif kind == COORDINATE_FORCE:
+        return L.coordinate_potential(e, q, A, dA, d)
+    elif kind == LINE_SPRING:
+        return S.line_spring_potential(e, q, A, dA, d)
+    elif kind == POINT_FORCE:
+        return L.point_potential(e, q, A, dA, d)
+    elif kind == TABLE_SPRING:
+        return S.table_spring_potential(e, q, A, dA, d)
+    elif kind == LINE_FORCE:
+        return L.line_potential(e, q, A, dA, d)
+    elif kind == PYTHON_KIND:
+        key = d.ints[e, 0]
+        with objmode(x="float64"):
+            x = P.element_potential(key, q, A, dA)
+        return x
+    return 0.0
 
 
 @njit(cache=True)
@@ -175,22 +266,151 @@ def potential(q, A, dA, d):
     """Potential energy (J) of the conservative elements."""
     V = 0.0
     for e in range(d.kind.shape[0]):
-        kind = d.kind[e]
-        if kind == JOINT_SPRING:
-            V += S.joint_spring_potential(e, q, A, dA, d)
-        elif kind == COORDINATE_FORCE:
-            V += L.coordinate_potential(e, q, A, dA, d)
-        elif kind == LINE_SPRING:
-            V += S.line_spring_potential(e, q, A, dA, d)
-        elif kind == POINT_FORCE:
-            V += L.point_potential(e, q, A, dA, d)
-        elif kind == TABLE_SPRING:
-            V += S.table_spring_potential(e, q, A, dA, d)
-        elif kind == LINE_FORCE:
-            V += L.line_potential(e, q, A, dA, d)
-        elif kind == PYTHON_KIND:
-            key = d.ints[e, 0]
-            with objmode(x="float64"):
-                x = P.element_potential(key, q, A, dA)
-            V += x
+        V += element_potential(e, q, A, dA, d)
     return V
+
+
+@njit(cache=True)
+def element_loads(e, q, v, z, A, dA, factor, d, rows):
+    """rows (2, 10) = element e's physical loads (:func:`~.markers.load_row`); returns how
+    many (0: an element on a coordinate, whose force the joint transmits)."""
+    kind = d.kind[e]
+    if _is_line(kind):
+        length, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
+        f, _ = line_push(e, z, length, dl @ v, factor, d)
+        return line_loads(d.ints[e, 0], d.ints[e, 1], f, q, A, dA, d, rows)
+    elif kind == POINT_FORCE:
+        return L.point_loads(e, q, A, dA, factor, d, rows)
+    elif kind == FOLLOWER_FORCE:
+        return L.follower_loads(e, q, A, dA, factor, d, rows)
+    elif kind == TORQUE:
+        return L.torque_loads(e, q, A, dA, factor, d, rows)
+    return 0
+
+
+@dataclass(frozen=True, eq=False)
+class CompiledForces:
+    """A system's force elements in compiled form, evaluated from Python (statics,
+    linearisation, kinetostatics, energies, each element's methods).
+
+    data, histories : :func:`compile_forces`'s.  elements : the elements in row order.
+    nz : the length of the system's element states z.  mechanism : the system's.
+    """
+
+    data: ForceData
+    histories: tuple
+    elements: tuple
+    nz: int
+    mechanism: Any
+    system: Any = field(repr=False)
+    _rows: dict = field(default_factory=dict, repr=False)
+
+    @classmethod
+    def of(cls, system, forces=None) -> CompiledForces:
+        """``system``'s elements (or ``forces``, elements evaluated on their own with their
+        states first in z, in order) in compiled form."""
+        elements = tuple(system.forces if forces is None else forces)
+        data, histories = compile_forces(system, elements if forces is not None else None)
+        nz = sum(len(getattr(f, "STATES", ())) for f in elements)
+        out = cls(data, histories, elements, nz, system.mechanism, system)
+        out._rows.update({id(f): e for e, f in enumerate(elements)})
+        return out
+
+    def _tree_arrays(self, tree, q):
+        if tree.dA is None:  # the kernels need dA/dq: the pose's derivatives
+            from pipeline.kinematics.poses import evaluate_tree
+
+            tree = evaluate_tree(self.mechanism, q)
+        return tree.A, tree.dA
+
+    def _factors(self, t: float) -> np.ndarray:
+        return force_factors(self.histories, np.array([t]))[0]
+
+    def _states(self, z) -> np.ndarray:
+        """z (nz,) as an array; the first element with states names itself where z is
+        None (contract rule 7)."""
+        if self.nz == 0:
+            return np.zeros(0)
+        if z is None:
+            next(f for f in self.elements if getattr(f, "STATES", ())).own_states(None)
+        z = np.asarray(z, dtype=float)
+        if z.shape != (self.nz,):
+            raise ValueError(f"element states: expected ({self.nz},), got {z.shape}")
+        return z
+
+    def forces(self, tree, q, qd, t: float, z=None) -> tuple[np.ndarray, np.ndarray]:
+        """(Q (n,), its non-conservative part (n,)) of every element at (q, qd, t) and the
+        elements' states z (nz,); ``tree`` the TreeState at q."""
+        A, dA = self._tree_arrays(tree, q)
+        Q, Qnc = np.zeros(q.size), np.zeros(q.size)
+        generalized_forces(q, qd, self._states(z), A, dA, self._factors(t), self.data, Q, Qnc)
+        return Q, Qnc
+
+    def potential(self, tree, q) -> float:
+        """Potential energy (J) of every element's conservative part at q."""
+        A, dA = self._tree_arrays(tree, q)
+        return float(potential(q, A, dA, self.data))
+
+    def rates(self, tree, q, qd, t: float, z) -> np.ndarray:
+        """(nz,) the rates of the elements' own states at (q, qd, t, z)."""
+        A, dA = self._tree_arrays(tree, q)
+        zd = np.zeros(self.nz)
+        state_rates(q, qd, self._states(z), A, dA, self._factors(t), self.data, zd)
+        return zd
+
+    # -------------------------------------------------------------- one element
+    def _element(self, f, z):
+        """(the CompiledForces holding f, its row, the states z in that one's layout)."""
+        e = self._rows.get(id(f))
+        if e is None or self.elements[e] is not f:  # not this system's: on its own
+            own = CompiledForces.of(self.system, (f,))
+            return own, 0, own._states(z if own.nz else None)
+        full = np.zeros(self.nz)
+        k = len(getattr(f, "STATES", ()))
+        if k:
+            start = int(self.data.ints[e, 4])
+            full[start:start + k] = f.own_states(z)
+        return self, e, full
+
+    def element_forces(self, f, tree, q, qd, t: float, z=None):
+        """(Q (n,), its non-conservative part (n,)) of element f alone; z its own states."""
+        if not has_kernels(f):
+            return ForceElement.generalized_force(f, self.system, tree, q, qd, t, z), \
+                ForceElement.nonconservative_force(f, self.system, tree, q, qd, t, z)
+        c, e, zz = self._element(f, z)
+        A, dA = c._tree_arrays(tree, q)
+        Q, Qnc = np.zeros(q.size), np.zeros(q.size)
+        element_force(e, q, qd, zz, A, dA, c._factors(t), c.data, Q, Qnc)
+        return Q, Qnc
+
+    def element_potential(self, f, tree, q) -> float:
+        """V (J) of element f's conservative part at q."""
+        if not has_kernels(f):  # a user's subclass of a built-in: its own methods
+            return ForceElement.potential_energy(f, self.system, tree, q)
+        c, e, _ = self._element(f, np.zeros(len(getattr(f, "STATES", ()))))
+        A, dA = c._tree_arrays(tree, q)
+        return float(element_potential(e, q, A, dA, c.data))
+
+    def element_rates(self, f, tree, q, qd, t: float, z) -> np.ndarray:
+        """(k,) the rates of element f's own states z (k,)."""
+        if not has_kernels(f):
+            raise NotImplementedError(f"force element '{f.name}' ({type(f).__name__}) has "
+                                      "no compiled form and no state_rates method")
+        c, e, zz = self._element(f, z)
+        A, dA = c._tree_arrays(tree, q)
+        zd = np.zeros(c.nz)
+        element_rates(e, q, qd, zz, A, dA, c._factors(t), c.data, zd)
+        start = int(c.data.ints[e, 4])
+        return zd[start:start + len(f.STATES)]
+
+    def element_loads(self, f, tree, q, qd, t: float, z=None) -> tuple[Load, ...]:
+        """Element f's physical loads (ground axes; none for an element on a coordinate)."""
+        if not has_kernels(f):
+            return ForceElement.loads(f, self.system, tree, q, qd, t)
+        c, e, zz = self._element(f, z)
+        A, dA = c._tree_arrays(tree, q)
+        rows = np.zeros((2, 10))
+        k = element_loads(e, q, qd, zz, A, dA, c._factors(t), c.data, rows)
+        links = self.mechanism.links
+        return tuple(Load(links[int(r[0])].name, r[1:4].copy(), r[4:7].copy(), r[7:10].copy())
+                     for r in rows[:k])

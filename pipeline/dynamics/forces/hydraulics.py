@@ -64,9 +64,9 @@ Not modelled (yet): the cushions' throttling near the ends (without end stops a 
 outside [0, stroke] is reported by the run's checks), cavitation (pressures below -1 bar
 gauge are reported), pressure-dependent bulk modulus, load-holding valves.
 
-The scalar physics (flows, pressure rates, force) is written once, as compiled functions
-the numpy methods call too; only the geometry has its numpy and compiled forms, shared
-with every line element (:func:`pipeline.dynamics.forces.markers.line_geometry`).
+The physics (flows, pressure rates, force) is written once, as the compiled functions
+below; the element's methods evaluate them (:class:`~pipeline.dynamics.forces.base.
+CompiledElement`), and the numpy oracle is ``tests/dynamics/forces_numpy.py``.
 """
 
 from __future__ import annotations
@@ -80,10 +80,10 @@ from numba import njit
 
 from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
 from pipeline.core.errors import ConfigError
-from pipeline.dynamics.forces.base import LineElement
+from pipeline.dynamics.forces.base import CompiledElement, LineElement
 from pipeline.dynamics.forces.markers import line_geometry, marker_point
 
-__all__ = ["PID", "HydraulicCylinder", "anti_windup_time", "check_gains", "cylinder_force",
+__all__ = ["PID", "HydraulicCylinder", "anti_windup_time", "check_gains", "cylinder_push",
            "cylinder_rates", "marker_measurement", "pid_law"]
 
 #: bar: the scale of a pressure state (Newton's and the error estimate's units)
@@ -209,7 +209,7 @@ def anti_windup_time(kp: float, ki: float, kd: float, given: float | None = None
 
 
 @dataclass(frozen=True)
-class HydraulicCylinder(LineElement):
+class HydraulicCylinder(CompiledElement, LineElement):
     """Hydraulic cylinder with a 4/3 proportional valve (module docstring). SI units:
     m, m^3, Pa, m^3/s, N, s.
 
@@ -447,34 +447,6 @@ class HydraulicCylinder(LineElement):
                         + [1.0, 2 * math.pi * (self.spool_frequency or 0.0)][:self.spool_order]
                         + [1.0] * self.controlled)
 
-    # ------------------------------------------------------------------ numpy
-    def _force(self, system, tree, q, qd, t, z=None):
-        z = self.own_states(z)
-        _, _, length, _, dl = self.line(system, tree, q)
-        return piston_force(self.parameters(), float(z[0]), float(z[1]),
-                            length - self.length_retracted, float(dl @ qd)) * dl
-
-    def state_rates(self, system, tree, q, qd, t: float, z) -> np.ndarray:
-        """(p_a', p_b'[, p_s']), Pa/s, at (q, qd, t) and the pressures z."""
-        from pipeline.dynamics.forces.base import marker_point as point_on
-        from pipeline.dynamics.forces.loads import history_value
-
-        z = self.own_states(z)
-        _, _, length, _, dl = self.line(system, tree, q)
-        par = self.parameters()
-        par[_MEAS] = self.measured_index(system.mechanism)
-        ym = ymd = 0.0
-        if par[_MEAS] == _ON_MARKER:
-            link, frame, axis = marker_measurement(self.command.measured)
-            mp = point_on(system, link, frame, tree, q)
-            ym, ymd = float(mp.R[axis]), float(mp.dR[:, axis] @ qd)
-        out = np.empty(z.size)
-        rate = self.command.rate(t) if self.controlled else 0.0
-        command_rates(par, history_value(self.command, t, self.name), rate, length,
-                      float(dl @ qd), ym, ymd, np.asarray(q, dtype=float),
-                      np.asarray(qd, dtype=float), z, 0, out)
-        return out
-
     def run_checks(self, system, r) -> list[str]:
         """What the model leaves out and a run ``r`` (SimulationResult) reached: a stroke
         outside [0, stroke] (no end stops yet) or a pressure below -1 bar gauge
@@ -514,13 +486,6 @@ class HydraulicCylinder(LineElement):
                        f"at t = {worst[2]:.4g} s, outside [0, {self.stroke:g}] m; without end "
                        f"stops (end_stiffness) the motion beyond is not the machine's")
         return out
-
-    def loads(self, system, tree, q, qd, t, z=None):
-        z = self.own_states(z)
-        _, _, length, _, dl = self.line(system, tree, q)
-        f = piston_force(self.parameters(), float(z[0]), float(z[1]),
-                         length - self.length_retracted, float(dl @ qd))
-        return self.line_loads(system, tree, q, f)
 
 
 # ---------------------------------------------------------------------- the physics, once
@@ -653,13 +618,12 @@ def pressure_rates(par, length, sd, pa, pb, psup, x, out):
 
 
 @njit(cache=True)
-def cylinder_force(e, q, v, z, A, dA, factor, d, Q, Qnc):
-    length, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
+def cylinder_push(e, z, length, rate, d):
+    """(the piston's force pushing the markers apart, N, all of it non-conservative) at
+    the element's pressures z[o:o + 2] and its length (m) and rate (m/s)."""
     o = d.ints[e, 4]
-    f = piston_force(d.par[e], z[o], z[o + 1], length - d.par[e, _L0], dl @ v)
-    for i in range(q.shape[0]):
-        Q[i] += f * dl[i]
-        Qnc[i] += f * dl[i]
+    f = piston_force(d.par[e], z[o], z[o + 1], length - d.par[e, _L0], rate)
+    return f, f
 
 
 @njit(cache=True)

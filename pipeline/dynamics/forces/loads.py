@@ -23,18 +23,15 @@ from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consis
 from pipeline.core.errors import ConfigError
 from pipeline.core.validate import validate_array
 from pipeline.dynamics.forces.base import (
-    ForceElement,
+    CompiledElement,
     LineElement,
-    Load,
     check_coordinate,
     check_marker,
-    marker_point,
-    marker_twist,
-    point_load,
 )
 from pipeline.dynamics.forces.markers import (
     frame_twist,
     line_geometry,
+    load_row,
     marker_frame,
 )
 from pipeline.dynamics.forces.markers import (
@@ -73,7 +70,7 @@ def history_rate(history: Any, t: float) -> float:
 
 
 @dataclass(frozen=True)
-class PointForce(ForceElement):
+class PointForce(CompiledElement):
     """Force (3,) N in ground axes at a point ``offset`` (3,) m of a marker frame,
     scaled by ``history`` (None: constant)."""
 
@@ -101,25 +98,6 @@ class PointForce(ForceElement):
     def validate(self, system) -> None:
         check_marker(system, self.marker, self.name, "marker")
 
-    def _point(self, system, tree, q):
-        return marker_point(system, *self.marker, tree, q, np.asarray(self.offset, float))
-
-    def _vector(self, p, t):
-        return history_value(self.history, t, self.name) * np.asarray(self.force, float)
-
-    def _force(self, system, tree, q, qd, t):
-        p = self._point(system, tree, q)
-        return p.dR @ self._vector(p, t)
-
-    def loads(self, system, tree, q, qd, t):
-        p = self._point(system, tree, q)
-        return (point_load(self.marker[0], p.R, self._vector(p, t)),)
-
-    def potential_energy(self, system, tree, q) -> float:
-        if not self.conservative:
-            return 0.0
-        return -float(np.asarray(self.force, float) @ self._point(system, tree, q).R)
-
 
 @dataclass(frozen=True)
 class FollowerForce(PointForce):
@@ -131,15 +109,9 @@ class FollowerForce(PointForce):
     def conservative(self) -> bool:
         return False
 
-    def _vector(self, p, t):
-        return history_value(self.history, t, self.name) * (p.P[:3, :3] @ np.asarray(self.force))
-
-    def potential_energy(self, system, tree, q) -> float:
-        return 0.0
-
 
 @dataclass(frozen=True)
-class LineForce(LineElement):
+class LineForce(CompiledElement, LineElement):
     """Force of magnitude ``force`` (N, positive pushes the markers apart) along the
     line from marker_a to marker_b, equal and opposite on the two markers."""
 
@@ -159,22 +131,9 @@ class LineForce(LineElement):
     def conservative(self) -> bool:
         return self.history is None
 
-    def _force(self, system, tree, q, qd, t):
-        f = history_value(self.history, t, self.name) * float(self.force)
-        return f * self.line(system, tree, q)[4]
-
-    def loads(self, system, tree, q, qd, t):
-        f = history_value(self.history, t, self.name) * float(self.force)
-        return self.line_loads(system, tree, q, f)
-
-    def potential_energy(self, system, tree, q) -> float:
-        if not self.conservative:
-            return 0.0
-        return -float(self.force) * self.line(system, tree, q)[2]
-
 
 @dataclass(frozen=True)
-class Torque(ForceElement):
+class Torque(CompiledElement):
     """Torque (3,) N m on a marker's link, in ground axes or (``follower``) in the
     marker frame's axes, scaled by ``history``."""
 
@@ -196,22 +155,11 @@ class Torque(ForceElement):
     def validate(self, system) -> None:
         check_marker(system, self.marker, self.name, "marker")
 
-    def _vector(self, p, t):
-        T = history_value(self.history, t, self.name) * np.asarray(self.torque, float)
-        return p.P[:3, :3] @ T if self.follower else T
-
-    def _force(self, system, tree, q, qd, t):
-        p = marker_point(system, *self.marker, tree, q)
-        return marker_twist(p) @ self._vector(p, t)
-
-    def loads(self, system, tree, q, qd, t):
-        p = marker_point(system, *self.marker, tree, q)
-        return (Load(self.marker[0], p.R, np.zeros(3), self._vector(p, t)),)
-
 
 @dataclass(frozen=True)
-class JointForce(ForceElement):
-    """Generalized force (N or N m) on one coordinate, scaled by ``history``."""
+class JointForce(CompiledElement):
+    """Generalized force (N or N m) on one coordinate, scaled by ``history`` (transmitted
+    through the joint of ``coordinate``: no loads of its own)."""
 
     name: str
     coordinate: str
@@ -231,20 +179,6 @@ class JointForce(ForceElement):
     def validate(self, system) -> None:
         check_coordinate(system, self.coordinate, self.name)
 
-    def loads(self, system, tree, q, qd, t):
-        return ()  # transmitted through the joint of ``coordinate``
-
-    def _force(self, system, tree, q, qd, t):
-        Q = np.zeros_like(q)
-        Q[system.mechanism.index(self.coordinate)] = (
-            history_value(self.history, t, self.name) * float(self.force))
-        return Q
-
-    def potential_energy(self, system, tree, q) -> float:
-        if not self.conservative:
-            return 0.0
-        return -float(self.force) * float(q[system.mechanism.index(self.coordinate)])
-
 
 @dataclass(frozen=True)
 class ForceCylinder(JointForce):
@@ -262,10 +196,11 @@ class ForceCylinder(JointForce):
 
 
 # --------------------------------------------------------------------------- compiled forms
-# Each kernel adds element e's generalized force to Q and its non-conservative part to Qnc,
-# or returns its potential energy, from the flat ForceData d (pipeline.dynamics.forces.
-# markers) and the history factor (F,) of each element at the time; the numpy methods
-# above are their reference (tests/solver/test_compiled_step).
+# The physics of these elements, once: element e's generalized force added to Q and its
+# non-conservative part to Qnc, a line force's push, its potential energy, or its physical
+# loads (rows of link, point, force, torque: pipeline.dynamics.forces.markers.load_row),
+# from the flat ForceData d (pipeline.dynamics.forces.markers) and the history factor (F,)
+# of each element at the time. The numpy oracle is tests/dynamics/forces_numpy.py.
 
 @njit(cache=True)
 def coordinate_force(e, q, v, A, dA, factor, d, Q, Qnc):
@@ -307,23 +242,44 @@ def point_potential(e, q, A, dA, d):
 
 
 @njit(cache=True)
-def follower_force(e, q, v, A, dA, factor, d, Q, Qnc):
-    n = q.shape[0]
-    p, dp = np.zeros(3), np.zeros((n, 3))
-    R, dR = np.zeros((3, 3)), np.zeros((n, 3, 3))
+def point_loads(e, q, A, dA, factor, d, rows):
+    """One row: the force (ground axes) at its point. Returns 1."""
+    p, dp = np.zeros(3), np.zeros((q.shape[0], 3))
     point_kernel(d.ints[e, 0], q, A, dA, d, p, dp)
-    marker_frame(d.ints[e, 0], q, A, dA, d, R, dR)
-    _add_along(dp, R @ (factor[e] * d.par[e, 3:6]), Q, Qnc, False)
+    load_row(rows[0], d.link[d.ints[e, 0]], p, factor[e] * d.par[e, 3:6], np.zeros(3))
+    return 1
 
 
 @njit(cache=True)
-def line_force(e, q, v, A, dA, factor, d, Q, Qnc):
-    _, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
+def _follower_vector(e, q, A, dA, factor, d, dp):
+    """(the point (3,), the force in ground axes (3,)); dp (n, 3) filled with dp/dq."""
+    n = q.shape[0]
+    p = np.zeros(3)
+    R, dR = np.zeros((3, 3)), np.zeros((n, 3, 3))
+    point_kernel(d.ints[e, 0], q, A, dA, d, p, dp)
+    marker_frame(d.ints[e, 0], q, A, dA, d, R, dR)
+    return p, R @ (factor[e] * d.par[e, 3:6])
+
+
+@njit(cache=True)
+def follower_force(e, q, v, A, dA, factor, d, Q, Qnc):
+    dp = np.zeros((q.shape[0], 3))
+    _, F = _follower_vector(e, q, A, dA, factor, d, dp)
+    _add_along(dp, F, Q, Qnc, False)
+
+
+@njit(cache=True)
+def follower_loads(e, q, A, dA, factor, d, rows):
+    p, F = _follower_vector(e, q, A, dA, factor, d, np.zeros((q.shape[0], 3)))
+    load_row(rows[0], d.link[d.ints[e, 0]], p, F, np.zeros(3))
+    return 1
+
+
+@njit(cache=True)
+def line_force_push(e, factor, d):
+    """(f, its non-conservative part): the force pushing the markers apart, N."""
     f = factor[e] * d.par[e, 3]
-    for i in range(q.shape[0]):
-        Q[i] += f * dl[i]
-        if not d.conservative[e]:
-            Qnc[i] += f * dl[i]
+    return f, 0.0 if d.conservative[e] else f
 
 
 @njit(cache=True)
@@ -335,15 +291,31 @@ def line_potential(e, q, A, dA, d):
 
 
 @njit(cache=True)
-def torque(e, q, v, A, dA, factor, d, Q, Qnc):
+def _torque_vector(e, q, A, dA, factor, d, w):
+    """The torque in ground axes (3,); w (n, 3) filled with the frame's twist."""
     n = q.shape[0]
-    R, dR, w = np.zeros((3, 3)), np.zeros((n, 3, 3)), np.zeros((n, 3))
+    R, dR = np.zeros((3, 3)), np.zeros((n, 3, 3))
     marker_frame(d.ints[e, 0], q, A, dA, d, R, dR)
     frame_twist(R, dR, w)
     T = factor[e] * d.par[e, 3:6]
-    if d.ints[e, 1]:  # given in the marker frame's axes
-        T = R @ T
-    _add_along(w, T, Q, Qnc, False)
+    return R @ T if d.ints[e, 1] else T  # ints[e, 1]: given in the marker frame's axes
+
+
+@njit(cache=True)
+def torque(e, q, v, A, dA, factor, d, Q, Qnc):
+    w = np.zeros((q.shape[0], 3))
+    _add_along(w, _torque_vector(e, q, A, dA, factor, d, w), Q, Qnc, False)
+
+
+@njit(cache=True)
+def torque_loads(e, q, A, dA, factor, d, rows):
+    """One row: the torque on the marker's link (at the marker's origin)."""
+    n = q.shape[0]
+    T = _torque_vector(e, q, A, dA, factor, d, np.zeros((n, 3)))
+    p, dp = np.zeros(3), np.zeros((n, 3))
+    point_kernel(d.ints[e, 0], q, A, dA, d, p, dp)
+    load_row(rows[0], d.link[d.ints[e, 0]], p, np.zeros(3), T)
+    return 1
 
 
 @njit(cache=True)

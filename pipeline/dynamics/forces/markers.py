@@ -6,8 +6,8 @@ A marker frame on link l has the pose A_l S(eta) with S(eta) = S0 + sum_a eta_a 
 :class:`pipeline.kinematics.links.Frame`). A point at offset o in it is
 R = A_l (c0 + sum_a eta_a c_a + sum_ab eta_a eta_b he_ab / 2) with c0 = r0 + R0 o and
 c_a = dS_a applied to o; the frame's rotation is A_l[:3, :3] (R0 + sum_a eta_a dR_a).
-The numpy forms are :func:`pipeline.dynamics.forces.base.marker_point` and
-:func:`~pipeline.dynamics.forces.base.marker_twist` (tested equal).
+The numpy form of a marker point is :func:`pipeline.dynamics.forces.base.marker_point`
+(tested equal), of a frame's twist the tests' oracle (``tests/dynamics/forces_numpy.py``).
 
 :class:`ForceData` is everything the compiled force kernels read, by name.
 """
@@ -21,8 +21,8 @@ from numba import njit
 
 from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
 
-__all__ = ["ForceData", "MarkerTable", "frame_twist", "line_geometry", "marker_frame",
-           "marker_point"]
+__all__ = ["ForceData", "MarkerTable", "frame_twist", "line_geometry", "line_loads",
+           "load_row", "marker_frame", "marker_point"]
 
 #: The force elements of a system, flat (see :func:`pipeline.dynamics.forces.compiled.
 #: compile_forces`): per element its ``kind`` (F,), ``ints`` (F, 5) (markers, coordinate,
@@ -151,3 +151,28 @@ def line_geometry(ka, kb, q, A, dA, d):
     x = pb - pa
     length = np.sqrt(x[0] ** 2 + x[1] ** 2 + x[2] ** 2)
     return length, (db - da) @ (x / length)
+
+
+@njit(cache=True)
+def load_row(row, link, p, F, T):
+    """row (10,) = one physical load: its link's index, the point p (3,) m, the force F (3,)
+    N and the torque T (3,) N m, ground axes (read back by
+    :meth:`pipeline.dynamics.forces.compiled.CompiledForces.element_loads`)."""
+    row[0] = link
+    row[1:4] = p
+    row[4:7] = F
+    row[7:10] = T
+
+
+@njit(cache=True)
+def line_loads(ka, kb, f, q, A, dA, d, rows):
+    """rows[:2] = the loads of a push f (N, > 0 drives the markers apart) along the line
+    from marker point ka to kb: -f u at a, f u at b (u the unit vector a -> b). Returns 2."""
+    n = q.shape[0]
+    pa, pb = np.zeros(3), np.zeros(3)
+    marker_point(ka, q, A, dA, d, pa, np.zeros((n, 3)))
+    marker_point(kb, q, A, dA, d, pb, np.zeros((n, 3)))
+    u = (pb - pa) / np.sqrt(np.sum((pb - pa) ** 2))
+    load_row(rows[0], d.link[ka], pa, -f * u, np.zeros(3))
+    load_row(rows[1], d.link[kb], pb, f * u, np.zeros(3))
+    return 2

@@ -8,8 +8,8 @@ Q_k = -k (q_k - q0) - c q_k'.
 Examples
 --------
 >>> s = SpringDamper("s", ("ground", "body"), ("arm", "tip"), stiffness=100.0, free_length=0.5)
->>> s.tension(0.75, 0.0)
-25.0
+>>> s.conservative  # no damper: Q = -dV/dq
+True
 """
 
 from __future__ import annotations
@@ -23,11 +23,7 @@ from numba import njit
 from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
 from pipeline.core.errors import ConfigError
 from pipeline.core.validate import validate_array
-from pipeline.dynamics.forces.base import (
-    ForceElement,
-    LineElement,
-    check_coordinate,
-)
+from pipeline.dynamics.forces.base import CompiledElement, LineElement, check_coordinate
 from pipeline.dynamics.forces.markers import line_geometry
 
 __all__ = ["JointSpringDamper", "SpringDamper", "TableSpringDamper"]
@@ -42,7 +38,7 @@ def _nonneg(value, name: str, field: str) -> float:
 
 
 @dataclass(frozen=True)
-class SpringDamper(LineElement):
+class SpringDamper(CompiledElement, LineElement):
     """Linear spring (N/m, free length m, preload N) and damper (N s/m) between two markers."""
 
     name: str
@@ -71,39 +67,6 @@ class SpringDamper(LineElement):
     def conservative(self) -> bool:
         return self.damping == 0.0
 
-    def nonconservative_force(self, system, tree, q, qd, t: float) -> np.ndarray:
-        """(n,) damper part -c l' dl/dq."""
-        _, dl = self._geometry(system, tree, np.asarray(q, float))
-        return -self.damping * float(dl @ np.asarray(qd, float)) * dl
-
-    def elastic(self, length: float) -> float:
-        """Elastic tension (N) at length (m)."""
-        return self.preload + self.stiffness * (length - self.free_length)
-
-    def energy(self, length: float) -> float:
-        """Stored energy (J): int_{l0}^{l} elastic dl."""
-        x = length - self.free_length
-        return self.preload * x + 0.5 * self.stiffness * x * x
-
-    def tension(self, length: float, rate: float) -> float:
-        """Total tension (N): elastic plus damping c l'."""
-        return self.elastic(length) + self.damping * rate
-
-    def _geometry(self, system, tree, q):
-        _, _, length, _, dl = self.line(system, tree, q)
-        return length, dl
-
-    def _force(self, system, tree, q, qd, t):
-        length, dl = self._geometry(system, tree, q)
-        return -self.tension(length, float(dl @ qd)) * dl
-
-    def potential_energy(self, system, tree, q) -> float:
-        return self.energy(self._geometry(system, tree, q)[0])
-
-    def loads(self, system, tree, q, qd, t):
-        length, dl = self._geometry(system, tree, q)
-        return self.line_loads(system, tree, q, -self.tension(length, float(dl @ qd)))
-
 
 @dataclass(frozen=True)
 class TableSpringDamper(SpringDamper):
@@ -120,9 +83,10 @@ class TableSpringDamper(SpringDamper):
     def pack(self, mech, markers) -> tuple:
         """(ints, par, table rows (k, 3): deflection m, tension N, int_x0^x f dx J)."""
         xs, fs = np.asarray(self.deflection), np.asarray(self.force)
+        cumulative = np.concatenate([[0.0], np.cumsum(0.5 * (fs[1:] + fs[:-1]) * np.diff(xs))])
         return ([markers.add(self.marker_a), markers.add(self.marker_b), 0, xs.size],
-                [0.0, self.free_length, self.damping, 0.0, self._integral(0.0), 0.0],
-                np.column_stack([xs, fs, self._cumulative()]))
+                [0.0, self.free_length, self.damping, 0.0, 0.0, 0.0],
+                np.column_stack([xs, fs, cumulative]))
 
     def __post_init__(self):
         super().__post_init__()
@@ -134,38 +98,11 @@ class TableSpringDamper(SpringDamper):
         object.__setattr__(self, "deflection", tuple(x))
         object.__setattr__(self, "force", tuple(f))
 
-    def _segment(self, x: float):
-        xs, fs = np.asarray(self.deflection), np.asarray(self.force)
-        k = int(np.clip(np.searchsorted(xs, x) - 1, 0, xs.size - 2))
-        slope = (fs[k + 1] - fs[k]) / (xs[k + 1] - xs[k])
-        return k, xs, fs, slope
-
-    def elastic(self, length: float) -> float:
-        x = length - self.free_length
-        k, xs, fs, slope = self._segment(x)
-        return float(fs[k] + slope * (x - xs[k]))
-
-    def energy(self, length: float) -> float:
-        """int_0^x f dx' (trapezoids over the table, exact for piecewise-linear f)."""
-        x = length - self.free_length
-        return self._integral(x) - self._integral(0.0)
-
-    def _cumulative(self) -> np.ndarray:
-        """(k,) int f dx from the first table row to each row (trapezoids), J."""
-        xs, fs = np.asarray(self.deflection), np.asarray(self.force)
-        return np.concatenate([[0.0], np.cumsum(0.5 * (fs[1:] + fs[:-1]) * np.diff(xs))])
-
-    def _integral(self, x: float) -> float:
-        xs, fs = np.asarray(self.deflection), np.asarray(self.force)
-        cum = self._cumulative()
-        k, _, _, slope = self._segment(x)
-        dx = x - xs[k]
-        return float(cum[k] + fs[k] * dx + 0.5 * slope * dx * dx)
-
 
 @dataclass(frozen=True)
-class JointSpringDamper(ForceElement):
-    """Spring k (N m/rad or N/m) about free value q0 and damper c on one coordinate."""
+class JointSpringDamper(CompiledElement):
+    """Spring k (N m/rad or N/m) about free value q0 and damper c on one coordinate (its
+    force is transmitted through the joint of ``coordinate``: no loads of its own)."""
 
     name: str
     coordinate: str
@@ -188,34 +125,16 @@ class JointSpringDamper(ForceElement):
     def conservative(self) -> bool:
         return self.damping == 0.0
 
-    def nonconservative_force(self, system, tree, q, qd, t: float) -> np.ndarray:
-        """(n,) damper part -c q_k'."""
-        Q = np.zeros(len(np.asarray(q)))
-        i = system.mechanism.index(self.coordinate)
-        Q[i] = -self.damping * float(np.asarray(qd, float)[i])
-        return Q
-
     def validate(self, system) -> None:
         check_coordinate(system, self.coordinate, self.name)
 
-    def loads(self, system, tree, q, qd, t):
-        return ()  # transmitted through the joint of ``coordinate``
-
-    def _force(self, system, tree, q, qd, t):
-        i = system.mechanism.index(self.coordinate)
-        Q = np.zeros_like(q)
-        Q[i] = -self.stiffness * (q[i] - self.free_value) - self.damping * qd[i]
-        return Q
-
-    def potential_energy(self, system, tree, q) -> float:
-        x = q[system.mechanism.index(self.coordinate)] - self.free_value
-        return 0.5 * self.stiffness * x * x
-
 
 # --------------------------------------------------------------------------- compiled forms
-# Each kernel adds element e's generalized force to Q and its non-conservative part to Qnc,
-# or returns its potential energy, from the flat ForceData d (pipeline.dynamics.forces.
-# markers); the numpy methods above are their reference (tests/solver/test_compiled_step).
+# The physics of these elements, once: element e's generalized force added to Q and its
+# non-conservative part to Qnc, its push along its line (a line element's: the force
+# driving its markers apart, N, and that push's non-conservative part), or its potential
+# energy, from the flat ForceData d (pipeline.dynamics.forces.markers). The numpy oracle
+# is tests/dynamics/forces_numpy.py.
 
 @njit(cache=True)
 def joint_spring_force(e, q, v, A, dA, factor, d, Q, Qnc):
@@ -231,18 +150,10 @@ def joint_spring_potential(e, q, A, dA, d):
 
 
 @njit(cache=True)
-def _add_tension(tension, damper, dl, Q, Qnc):
-    for i in range(Q.shape[0]):
-        Q[i] -= tension * dl[i]
-        Qnc[i] -= damper * dl[i]
-
-
-@njit(cache=True)
-def line_spring_force(e, q, v, A, dA, factor, d, Q, Qnc):
-    length, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
-    damper = d.par[e, 2] * (dl @ v)
-    _add_tension(d.par[e, 3] + d.par[e, 0] * (length - d.par[e, 1]) + damper, damper, dl, Q,
-                 Qnc)
+def line_spring_push(e, length, rate, d):
+    """(-(preload + k (l - l0) + c l'), -c l'): the spring pulls its markers together."""
+    damper = d.par[e, 2] * rate
+    return -(d.par[e, 3] + d.par[e, 0] * (length - d.par[e, 1]) + damper), -damper
 
 
 @njit(cache=True)
@@ -264,18 +175,24 @@ def _table_segment(d, e, x):
 
 
 @njit(cache=True)
-def table_spring_force(e, q, v, A, dA, factor, d, Q, Qnc):
-    length, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
+def _table_integral(d, e, x):
+    """int f dx from the table's first row to deflection x, J (exact: f is piecewise
+    linear)."""
+    r, slope = _table_segment(d, e, x)
+    dx = x - d.table[r, 0]
+    return d.table[r, 2] + d.table[r, 1] * dx + 0.5 * slope * dx * dx
+
+
+@njit(cache=True)
+def table_spring_push(e, length, rate, d):
+    """(-(f(l - l0) + c l'), -c l') with f from the table."""
     x = length - d.par[e, 1]
     r, slope = _table_segment(d, e, x)
-    damper = d.par[e, 2] * (dl @ v)
-    _add_tension(d.table[r, 1] + slope * (x - d.table[r, 0]) + damper, damper, dl, Q, Qnc)
+    damper = d.par[e, 2] * rate
+    return -(d.table[r, 1] + slope * (x - d.table[r, 0]) + damper), -damper
 
 
 @njit(cache=True)
 def table_spring_potential(e, q, A, dA, d):
     length, _ = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
-    x = length - d.par[e, 1]
-    r, slope = _table_segment(d, e, x)
-    dx = x - d.table[r, 0]
-    return d.table[r, 2] + d.table[r, 1] * dx + 0.5 * slope * dx * dx - d.par[e, 4]
+    return _table_integral(d, e, length - d.par[e, 1]) - _table_integral(d, e, 0.0)
