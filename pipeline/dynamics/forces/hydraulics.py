@@ -13,7 +13,16 @@ Pressures (Pa, gauge) p_a, p_b are the element's states, from the oil's compress
 
     p_a' = beta / V_a (Q_a - A_a s' - Q_L),    p_b' = beta / V_b (Q_b + A_b s' + Q_L),
 
-with the leakage across the piston Q_L = c_L (p_a - p_b). The valve's command u(t) in
+with the leakage across the piston Q_L = c_L (p_a - p_b). Oil carrying undissolved air
+(``air_content`` alpha: its volume fraction at atmospheric pressure p0) is softer at low
+pressure: the air, compressed isothermally beside the oil, gives the mixture the effective
+modulus at absolute pressure P = p + p0
+
+    beta_e(P) = beta (1 + alpha p0 / P) / (1 + alpha beta p0 / P^2),
+
+beta at high pressure and far less near the tank's (1 % air, beta = 1 GPa: 0.99 beta at
+100 bar, 0.55 beta at 10 bar, 0.08 beta at 2 bar gauge), used in every chamber's rate (and
+the supply line's). The valve's command u(t) in
 [-1, 1] (``command``; clipped) sets its spool position x: at once (x = u), or through spool
 dynamics, a first-order lag (``spool_time_constant`` tau: x' = (u - x) / tau) or a
 second-order one (``spool_frequency`` f_v, ``spool_damping`` zeta_v: x'' = w_v^2 (u - x) -
@@ -62,7 +71,8 @@ area over the valve's flow per unit command), so the loop need not lag to move.
 
 Not modelled (yet): the cushions' throttling near the ends (without end stops a stroke
 outside [0, stroke] is reported by the run's checks), cavitation (pressures below -1 bar
-gauge are reported), pressure-dependent bulk modulus, load-holding valves.
+gauge are reported), the air's dissolving at higher pressure (taken as staying
+undissolved, the soft limit), load-holding valves.
 
 The physics (flows, pressure rates, force) is written once, as the compiled functions
 below; the element's methods evaluate them (:class:`~pipeline.dynamics.forces.base.
@@ -93,8 +103,10 @@ PRESSURES = ("p_a", "p_b")
 
 # par columns of the packed element
 _AA, _AB, _L0, _STROKE, _VA0, _VB0, _BETA, _PS, _PT, _KV, _DPL, _LEAK, _VISC, _COUL, _VS, \
-    _QP, _PR, _KR, _VS0, _SPOOL, _TAU, _WV, _ZV, _OVL, _KE, _CE, \
-    _PID, _KP, _KI, _KD, _UMIN, _UMAX, _TT, _MEAS, _KFF, _MMK, _MCOMP = range(37)
+    _QP, _PR, _KR, _VS0, _SPOOL, _TAU, _WV, _ZV, _OVL, _KE, _CE, _AIR, \
+    _PID, _KP, _KI, _KD, _UMIN, _UMAX, _TT, _MEAS, _KFF, _MMK, _MCOMP = range(38)
+#: Pa: atmospheric pressure, the reference of the gauge pressures and of the air content
+ATMOSPHERE = 101325.0
 #: _MEAS of a controller on a marker's position (its point _MMK, its component _MCOMP)
 _ON_MARKER = -4
 #: the components of a measured marker position
@@ -214,7 +226,9 @@ class HydraulicCylinder(CompiledElement, LineElement):
     m, m^3, Pa, m^3/s, N, s.
 
     ``dead_volume_a``/``_b`` default to 10 % of the chamber's full volume (add the
-    hoses'); ``initial_pressures`` (Pa gauge) are the states at the start, one of them
+    hoses'); ``air_content`` is the volume fraction of undissolved air in the oil at
+    atmospheric pressure (0: the constant ``bulk_modulus``; module docstring);
+    ``initial_pressures`` (Pa gauge) are the states at the start, one of them
     possibly ``"hold"``: the pressure that, with the other, holds the machine at rest
     where it starts (a loaded boom on a closed valve).
     """
@@ -251,6 +265,7 @@ class HydraulicCylinder(CompiledElement, LineElement):
     spool_overlap: float = 0.0
     end_stiffness: float | None = None
     end_damping: float = 0.0
+    air_content: float = 0.0
     KIND: ClassVar[int] = 8
     HISTORY: ClassVar[str] = "command"
 
@@ -291,6 +306,11 @@ class HydraulicCylinder(CompiledElement, LineElement):
             if isinstance(x, bool) or not isinstance(x, int | float) or not x >= 0 \
                     or not math.isfinite(x):
                 raise ConfigError(f"{where}: {key}: expected a number >= 0, got {x!r}")
+        a = self.air_content
+        if isinstance(a, bool) or not isinstance(a, int | float) or not 0.0 <= a < 1.0:
+            raise ConfigError(f"{where}: air_content: expected a volume fraction in [0, 1) "
+                              f"(undissolved air at atmospheric pressure, e.g. 0.01), got "
+                              f"{a!r}")
         if not self.rod < self.bore:
             raise ConfigError(f"{where}: rod: expected a diameter below the bore "
                               f"({self.bore} m), got {self.rod}")
@@ -351,7 +371,7 @@ class HydraulicCylinder(CompiledElement, LineElement):
                 0.1 * ab * self.stroke if self.dead_volume_b is None else self.dead_volume_b)
 
     def parameters(self) -> np.ndarray:
-        """(37,) the packed parameters (the ``par`` row of the compiled form)."""
+        """(38,) the packed parameters (the ``par`` row of the compiled form)."""
         aa, ab = self.areas
         va, vb = self.dead_volumes
         pump = self.pump_flow is not None
@@ -365,7 +385,7 @@ class HydraulicCylinder(CompiledElement, LineElement):
                          self.spool_time_constant or 0.0,
                          2 * math.pi * (self.spool_frequency or 0.0), self.spool_damping,
                          self.spool_overlap, self.end_stiffness or 0.0, self.end_damping,
-                         *self._pid_parameters()], dtype=float)
+                         self.air_content, *self._pid_parameters()], dtype=float)
 
     def _pid_parameters(self) -> tuple:
         """(flag, kp, ki, kd, u_min, u_max, T_t, the measured signal (-1 here: the packing
@@ -406,12 +426,15 @@ class HydraulicCylinder(CompiledElement, LineElement):
         super().validate(system)
         self.measured_index(system.mechanism)
 
-    def oil_stiffness(self, s: float) -> float:
-        """The oil columns' axial stiffness beta (A_a^2 / V_a + A_b^2 / V_b) at stroke s (m),
-        valve closed, N/m."""
+    def oil_stiffness(self, s: float, pressures=(0.0, 0.0)) -> float:
+        """The oil columns' axial stiffness beta_a A_a^2 / V_a + beta_b A_b^2 / V_b at
+        stroke s (m), valve closed, N/m; with air in the oil the moduli are the effective
+        ones at the chambers' ``pressures`` (p_a, p_b), Pa gauge."""
         aa, ab = self.areas
         va, vb = self.dead_volumes
-        return self.bulk_modulus * (aa ** 2 / (va + aa * s) + ab ** 2 / (vb + ab * (self.stroke - s)))
+        par = self.parameters()
+        return effective_bulk_modulus(par, pressures[0]) * aa ** 2 / (va + aa * s) \
+            + effective_bulk_modulus(par, pressures[1]) * ab ** 2 / (vb + ab * (self.stroke - s))
 
     def pack(self, mech, markers) -> tuple:
         """(ints, par, table rows or None) of the compiled form."""
@@ -493,6 +516,20 @@ class HydraulicCylinder(CompiledElement, LineElement):
 def _orifice(dp, laminar):
     """dp / (dp^2 + dp_L^2)^(1/4): sign(dp) sqrt|dp| turbulent, linear below dp_L."""
     return dp / (dp * dp + laminar * laminar) ** 0.25
+
+
+@njit(cache=True)
+def effective_bulk_modulus(par, p):
+    """The oil's bulk modulus (Pa) at gauge pressure p (Pa) with its entrained air (module
+    docstring): beta (1 + alpha p0 / P) / (1 + alpha beta p0 / P^2), P = p + p0 (absolute,
+    kept above a hundredth of an atmosphere: below, the oil cavitates, which the run's
+    checks report)."""
+    alpha = par[_AIR]
+    if alpha == 0.0:
+        return par[_BETA]
+    P = max(p + ATMOSPHERE, 0.01 * ATMOSPHERE)
+    x = alpha * ATMOSPHERE / P
+    return par[_BETA] * (1.0 + x) / (1.0 + par[_BETA] * x / P)
 
 
 @njit(cache=True)
@@ -609,12 +646,12 @@ def pressure_rates(par, length, sd, pa, pb, psup, x, out):
     # volume
     va = max(par[_VA0] + par[_AA] * s, 0.1 * par[_VA0])
     vb = max(par[_VB0] + par[_AB] * (par[_STROKE] - s), 0.1 * par[_VB0])
-    out[0] = par[_BETA] / va * (qa - par[_AA] * sd - ql)
-    out[1] = par[_BETA] / vb * (qb + par[_AB] * sd + ql)
+    out[0] = effective_bulk_modulus(par, pa) / va * (qa - par[_AA] * sd - ql)
+    out[1] = effective_bulk_modulus(par, pb) / vb * (qb + par[_AB] * sd + ql)
     out[2] = 0.0
     if pump:  # the supply line between the pump and the valve
-        out[2] = par[_BETA] / par[_VS0] * (par[_QP] - par[_KV] * (qpa + qpb)
-                                           - relief_flow(par, ps))
+        out[2] = effective_bulk_modulus(par, ps) / par[_VS0] * (
+            par[_QP] - par[_KV] * (qpa + qpb) - relief_flow(par, ps))
 
 
 @njit(cache=True)
