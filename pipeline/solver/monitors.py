@@ -356,6 +356,26 @@ def _step_error(r: SimulationResult) -> list[str]:
              f"about {h / ratio:.2g} s would meet it, or omit the step for error control")]
 
 
+def _coupling_error(r: SimulationResult) -> list[str]:
+    """A co-simulation whose estimated coupling error (:func:`pipeline.solver.cosim.
+    coupling_estimate`) exceeds the tolerance the user gave."""
+    s = r.step_stats or {}
+    H = s.get("macro_step", 0.0)
+    why = s.get("coupling_unavailable")
+    if why:
+        return [(f"the coupling error of the co-simulation's macro step {H:.3g} s could not "
+                 f"be estimated ({why}), so the run is not known to be within its tolerance")]
+    ratio = s.get("coupling_ratio")
+    if ratio is None or ratio <= 1.0:
+        return []
+    return [(f"the co-simulation's macro step {H:.3g} s gives an estimated coupling error "
+             f"(the blocks' outputs held over each macro step) of {ratio:.3g} x the "
+             f"tolerance (rtol, atol), largest in {s['coupling_coordinate']} at t = "
+             f"{s['coupling_time']:.4g} s ({s.get('coupling_method', '')}); about "
+             f"{H / ratio:.2g} s would meet it, or coupling_error false where a block is a "
+             f"digital controller sampled at the macro step by design")]
+
+
 def _steps(r: SimulationResult, lim: Limits, span: float) -> list[str]:
     hmin = r.step_stats.get("h_min") if r.step_stats else None
     if hmin and r.n_steps and hmin < lim.min_step * span:
@@ -370,7 +390,7 @@ def check(system, r: SimulationResult, limits: Limits = Limits(),
     span = (t_span[1] - t_span[0]) if t_span else (float(r.t[-1] - r.t[0]) if r.t.size else 1.0)
     return tuple(_energy(r, limits) + _closure(r, limits) + _deformation(system, r, limits)
                  + _spin(system, r, limits) + _axial_load(system, r, limits) + _step_error(r)
-                 + _steps(r, limits, span) + _elements(system, r))
+                 + _coupling_error(r) + _steps(r, limits, span) + _elements(system, r))
 
 
 def _elements(system, r: SimulationResult) -> list[str]:

@@ -376,9 +376,11 @@ class Simulator:
             return np.inf
         return float(scaled.max(initial=0.0))
 
-    def _estimate(self, r: SimulationResult, deviation=None, states=None) -> dict:
-        """The error estimate of r: ``deviation`` (k, n) and ``states`` (k, nz), default
-        the calls' sums."""
+    def error_figures(self, r: SimulationResult, deviation=None, states=None) -> dict:
+        """An estimated error of r's first k outputs against this simulator's tolerance:
+        ``deviation`` (k, n) in the coordinates and ``states`` (k, nz) in the element
+        states, default the calls' summed estimate. Returns {"error_ratio" (1: at the
+        tolerance), "error_coordinate", "error_time"} (pipeline.solver.step_error)."""
         from pipeline.solver.step_error import scaled_error, with_state_error
 
         mech = self.system.mechanism
@@ -390,15 +392,20 @@ class Simulator:
                                 self.system.state_scales())
 
     # ------------------------------------------------------------------ results
-    def result(self, *, replay: bool = False, limits=None) -> SimulationResult:
+    def result(self, *, replay: bool = False, limits=None,
+               stats: dict | None = None) -> SimulationResult:
         """The history at every communication point (and t0), with the trust checks of
         :func:`~pipeline.solver.simulate` (``verdict``). The integration error is the
         calls' accumulated estimate, or with ``replay`` (inputs that do not depend on the
         state) that of the recorded inputs replayed at twice the step (module docstring).
+        ``stats``: figures the caller adds to ``step_stats`` to be judged with the rest (a
+        co-simulation master's coupling error, :mod:`pipeline.solver.cosim`).
         """
         from pipeline.solver.monitors import Limits, judge
 
         r = self._raw()
+        if stats:
+            r = replace(r, step_stats={**r.step_stats, **stats})
         if replay and r.t.size > 1:
             tic = time.perf_counter()
             h = self.step_size
@@ -411,7 +418,7 @@ class Simulator:
             states = np.abs(r.states[:k] - other.states[:k]) * factor
             how = "the calls replayed at " + ("half" if short else "twice") + " the step"
             r = replace(r, step_stats={**r.step_stats,
-                                       **self._estimate(r, deviation, states),
+                                       **self.error_figures(r, deviation, states),
                                        "error_seconds": time.perf_counter() - tic,
                                        "error_method": how})
         elif self._unavailable:
@@ -419,9 +426,20 @@ class Simulator:
                                        "error_unavailable": self._unavailable})
         elif self._deviation is not None and r.t.size > 1:
             how = "each call again at another step, the errors summed"
-            r = replace(r, step_stats={**r.step_stats, **self._estimate(r),
+            r = replace(r, step_stats={**r.step_stats, **self.error_figures(r),
                                        "error_method": how})
         return judge(self.system, r, limits or Limits(), t_span=(self._start[2], self.t))
+
+    def copy(self, *, error_estimate: bool = False) -> Simulator:
+        """A new simulator of the same machine, inputs, step and tolerances, at this one's
+        state (its history from the same start; this one's later calls are not its)."""
+        q0, qd0, t0 = self._start
+        other = Simulator(self._model, q0, qd0, t0, step=self.step_size,
+                          inputs=self._declared, rho_inf=self.rho_inf, rtol=self.rtol,
+                          atol=self.atol, error_estimate=error_estimate)
+        if self.t > t0:
+            other.set_state(self.state)
+        return other
 
     def _replay(self, step: float) -> SimulationResult:
         """The same calls with the recorded inputs at another step."""

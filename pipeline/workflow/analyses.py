@@ -251,7 +251,8 @@ def _cosimulate(m: Machine, system, q0, a, limits, path):
             signal(sim, c.measured)
         except ConfigError as exc:
             raise wf.error(*path, "controllers", i, "measured", msg=str(exc)) from None
-    return cosimulate(sim, blocks, a.t_end, macro, progress=True, limits=limits)
+    return cosimulate(sim, blocks, a.t_end, macro, progress=True, limits=limits,
+                      coupling_error=a.coupling_error)
 
 
 def state_histories(system, r) -> dict:

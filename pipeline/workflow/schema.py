@@ -399,6 +399,11 @@ class DynamicAnalysis(_Timed):
                                                              "FMUs and controllers, s "
                                                              "(default without FMUs: the "
                                                              "shortest controller period)")
+    coupling_error: bool = Field(True, description="estimate the co-simulation's coupling "
+                                                   "error (the blocks again at half the "
+                                                   "macro step); false where an FMU is a "
+                                                   "digital controller sampled at the macro "
+                                                   "step by design")
     method: str = Field("DOP853", description="DOP853 | Radau | BDF | RK45 | LSODA | "
                                               "generalized_alpha")
     formulation: Literal["auto", "dae", "partitioned"] = Field(

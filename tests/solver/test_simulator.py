@@ -225,6 +225,22 @@ def test_state_saved_and_restored_continues_the_same(four_bar):
     assert sim.result().t.size == 3
 
 
+def test_a_copy_continues_as_the_original_does(four_bar):
+    """Simulator.copy: the same machine and inputs at the original's state; the same calls
+    from there give the same motion, and the original is left as it was."""
+    system, q0 = four_bar
+    motor = JointForce("motor", "J2.theta", force=1.0)
+    sim = Simulator(replace(system, forces=(motor,)), q0, step=H, inputs=["motor"])
+    sim.step(0.05, {"motor": 2.0})
+    twin = sim.copy()
+    assert twin.t == sim.t and twin.inputs == {"motor": 2.0}
+    assert np.array_equal(twin.q, sim.q) and np.array_equal(twin.qd, sim.qd)
+    for x in (sim, twin):
+        x.step(0.05, {"motor": -1.0})
+    assert np.abs(twin.q - sim.q).max() < 1e-9 and np.abs(twin.qd - sim.qd).max() < 1e-7
+    assert sim.result().t.size == 3 and twin.error_ratio is None  # no estimate of its own
+
+
 def test_bad_calls_say_what_was_expected(four_bar):
     system, q0 = four_bar
     sim = Simulator(system, q0, step=H)
