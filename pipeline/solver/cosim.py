@@ -183,14 +183,16 @@ def signal(sim, name: str) -> float:
     if kind == "state" and target in sim.system.state_names:
         return float(sim.state.z[sim.system.state_names.index(target)])
     if kind == "marker":
-        marker, _, axis = target.rpartition(":")
-        link, _, frame = marker.partition(".")
-        if axis in ("x", "y", "z") and link and frame:
-            from pipeline.dynamics.forces.base import marker_pose
-            from pipeline.kinematics import evaluate_tree
+        from pipeline.dynamics.forces.base import marker_pose
+        from pipeline.kinematics import evaluate_tree
+        from pipeline.kinematics.marker_names import marker_component
 
-            tree = evaluate_tree(sim.system.mechanism, sim.q, derivatives=False)
-            return float(marker_pose(sim.system, link, frame, tree, sim.q)["xyz".index(axis), 3])
+        try:
+            link, frame, axis, _ = marker_component(target)
+        except ValueError as exc:
+            raise ConfigError(f"co-simulation: signal {name!r}: marker: {exc}") from None
+        tree = evaluate_tree(sim.system.mechanism, sim.q, derivatives=False)
+        return float(marker_pose(sim.system, link, frame, tree, sim.q)[axis, 3])
     raise ConfigError(
         f"co-simulation: signal {name!r}: expected time, q:<coordinate>, qd:<coordinate> "
         f"(coordinates: {list(coords)}), state:<element>.<state> (states: "

@@ -37,6 +37,7 @@ import numpy as np
 from pipeline.core.errors import ConfigError
 from pipeline.fem.stress import RESULTANTS, VOIGT, principal_stresses, von_mises
 from pipeline.kinematics import evaluate_tree
+from pipeline.kinematics.marker_names import AXES, marker_component
 from pipeline.kinematics.poses import step_pose
 
 KINDS = ("time", "q", "qd", "qdd", "marker", "deflection", "energy", "driver_force",
@@ -92,20 +93,16 @@ def marker_positions(mech, q: np.ndarray, link: str, frame: str, elastic_only: b
 
 
 def _marker_parts(spec: str, rest: str, mech) -> tuple[str, str, str | None]:
-    """(link.frame, component, axes link or None) of ``link.frame[:comp[@axes]]``."""
-    target, _, comp = rest.rpartition(":")
-    if not target:
-        target, comp = rest, "norm"
-    comp, _, axes = comp.partition("@")
-    if comp not in (*_COMPONENT, "norm"):
-        raise ConfigError(f"series {spec!r}: component {comp!r} is not x, y, z or norm "
-                          "(optionally @<link> for that link's axes)")
-    if axes == "ground":
-        axes = ""
+    """(link.frame, component, axes link or None) of ``link.frame[:comp[@axes]]``
+    (:func:`pipeline.kinematics.marker_names.marker_component`)."""
+    try:
+        link, frame, axis, axes = marker_component(rest, norm=True, axes=True)
+    except ValueError as exc:
+        raise ConfigError(f"series {spec!r}: {exc}") from None
     if axes and axes not in mech.link_names:
         raise ConfigError(f"series {spec!r}: axes {axes!r}: expected a link of "
                           f"{list(mech.link_names)}")
-    return target, comp, axes or None
+    return f"{link}.{frame}", "norm" if axis is None else AXES[axis], axes
 
 
 def series(result, mech, spec: str, parts=None) -> Series:

@@ -285,8 +285,8 @@ def test_a_controller_on_a_marker_reads_its_height_and_rate_in_closed_form():
 
 
 @pytest.mark.parametrize("measured, match", [
-    ("marker:arm.tip:w", "expected 'marker:link.frame:x'"),
-    ("marker:armtip:y", "expected 'marker:link.frame:x'"),
+    ("marker:arm.tip:w", "marker: expected 'link.frame:x"),
+    ("marker:armtip:y", "marker: expected 'link.frame:x"),
 ])
 def test_a_malformed_marker_measurement_is_refused(measured, match):
     with pytest.raises(ConfigError, match=match):

@@ -92,6 +92,7 @@ from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consis
 from pipeline.core.errors import ConfigError
 from pipeline.dynamics.forces.base import CompiledElement, LineElement
 from pipeline.dynamics.forces.markers import line_geometry, marker_point
+from pipeline.kinematics.marker_names import marker_component
 
 __all__ = ["PID", "HydraulicCylinder", "anti_windup_time", "check_gains", "cylinder_push",
            "cylinder_rates", "marker_measurement", "pid_law"]
@@ -109,10 +110,6 @@ _AA, _AB, _L0, _STROKE, _VA0, _VB0, _BETA, _PS, _PT, _KV, _DPL, _LEAK, _VISC, _C
 ATMOSPHERE = 101325.0
 #: _MEAS of a controller on a marker's position (its point _MMK, its component _MCOMP)
 _ON_MARKER = -4
-#: the components of a measured marker position
-AXES = ("x", "y", "z")
-
-
 def marker_measurement(measured: str) -> tuple[str, str, int] | None:
     """(link, frame, axis 0..2) of a ``measured`` "marker:link.frame:x|y|z", None for any
     other signal; a ConfigError for a malformed one.
@@ -124,12 +121,12 @@ def marker_measurement(measured: str) -> tuple[str, str, int] | None:
     """
     if not measured.startswith("marker:"):
         return None
-    target, _, axis = measured[len("marker:"):].rpartition(":")
-    link, dot, frame = target.partition(".")
-    if not (dot and link and frame and axis in AXES):
-        raise ConfigError(f"PID: measured: expected 'marker:link.frame:x', ':y' or ':z' (a "
-                          f"marker's position in ground axes), got {measured!r}")
-    return link, frame, AXES.index(axis)
+    try:
+        link, frame, axis, _ = marker_component(measured[len("marker:"):])
+    except ValueError as exc:
+        raise ConfigError(f"PID: measured: marker: {exc} (a marker's position in ground "
+                          f"axes)") from None
+    return link, frame, axis
 
 
 @dataclass(frozen=True)
