@@ -70,7 +70,9 @@ def _elements():
                           spool_overlap=0.05, end_stiffness=1e6, end_damping=0.1, **CYL),
         HydraulicCylinder("controlled", ("ground", "O4"), ("crank", "A"),
                           command=PID(RAMP, kp=2.0, ki=5.0, kd=0.1, measured="marker:coupler.B:y",
-                                      feedforward=0.3), spool_time_constant=0.02, **CYL),
+                                      feedforward=0.3), spool_time_constant=0.02,
+                          counterbalance={"side": "b", "setting": 80e5, "pilot_ratio": 3.0},
+                          pump_flow=1e-4, relief_pressure=150e5, **CYL),
     )
 
 

@@ -172,7 +172,7 @@ def test_a_pid_commanded_cylinder_runs_as_the_python_api_does(tmp_path):
     (PID_COMMAND.replace("slide.d", "marker:mass.nose:z"),
      r"forces\[0\]\.command\.pid\.measured: link 'mass': frame 'nose' does not exist"),
     (PID_COMMAND.replace("slide.d", "marker:mass.body:up"),
-     r"forces\[0\]\.command\.pid\.measured: PID: measured: expected 'marker:link\.frame:x'"),
+     r"forces\[0\]\.command\.pid\.measured: PID: measured: marker: expected 'link\.frame:x"),
 ])
 def test_a_bad_pid_is_named_at_its_line(tmp_path, command, match):
     with pytest.raises(ConfigError, match=r"lift\.yaml:\d+: " + match):
@@ -194,3 +194,23 @@ def test_a_pid_may_measure_a_chamber_pressure(tmp_path):
     wf = load_workflow(_write(tmp_path, _with_pid(command=command)))
     cyl = build_machine(wf, tmp_path / "links").system.forces[0]
     assert cyl.command.measured == "p_a" and cyl.measured_index(None) == -2
+
+
+def test_air_and_a_counterbalance_valve_are_written_in_the_workflow(tmp_path):
+    """``air_content`` and ``counterbalance: {...}`` build the element the Python API
+    builds; a bad valve field is named at its line."""
+    from pipeline.dynamics.forces.hydraulics import CounterbalanceValve
+    from pipeline.workflow.build import build_machine
+    from pipeline.workflow.load import load_workflow
+
+    extra = ("    air_content: 0.01\n"
+             "    counterbalance: {side: a, setting: 250.0e5, pilot_ratio: 4.0}\n")
+    text = LIFT.replace("    nominal_flow: 1.0e-3\n", "    nominal_flow: 1.0e-3\n" + extra)
+    m = build_machine(load_workflow(_write(tmp_path, text)), tmp_path / "links")
+    cyl = m.system.forces[0]
+    assert cyl.air_content == 0.01 and cyl.STATES == ("p_a", "p_b", "p_c")
+    assert cyl.counterbalance == CounterbalanceValve("a", 250e5, 4.0)
+    bad = text.replace("pilot_ratio: 4.0", "pilot_ration: 4.0")
+    with pytest.raises(ConfigError, match=r"lift\.yaml:\d+: forces\[0\].*counterbalance: "
+                                          r"unknown field 'pilot_ration'"):
+        build_machine(load_workflow(_write(tmp_path, bad)), tmp_path / "links")

@@ -45,6 +45,19 @@ excess, smoothed over 0.1 bar):
 
     p_s' = beta / V_s (Q_p - Q_PA - Q_PB - Q_relief(p_s)).
 
+A load-holding (counterbalance) valve (``counterbalance``) may sit between one chamber
+(side a or b) and the directional valve's port: the line between them, of volume V_c at
+pressure p_c, is one more state, and the valve passes
+
+    Q_cb = K_cb (f(max(p_c - p, 0)) - a f(p - p_c)),
+    a = clip((p + psi p_pilot - p_set) / dp_open, 0, 1),
+
+into the chamber (p its pressure): freely in through its check valve, out only where the
+chamber's pressure plus the pilot ratio psi times the other chamber's (the pilot, which
+the directional valve raises to lower the load) exceeds the setting p_set, fully open
+over dp_open. So an overrunning load is held against an open directional valve and
+lowered at the pace the pilot meters; p_c' = beta / V_c (Q_port - Q_cb).
+
 Force pushing the markers apart: F = p_a A_a - p_b A_b - c s' - F_c tanh(s' / v_s) (seal
 friction, viscous and Coulomb; the Coulomb part smoothed over ``friction_velocity`` v_s),
 and with ``end_stiffness`` k_e the end stops: a stroke beyond [0, stroke] by a depth d
@@ -72,7 +85,8 @@ area over the valve's flow per unit command), so the loop need not lag to move.
 Not modelled (yet): the cushions' throttling near the ends (without end stops a stroke
 outside [0, stroke] is reported by the run's checks), cavitation (pressures below -1 bar
 gauge are reported), the air's dissolving at higher pressure (taken as staying
-undissolved, the soft limit), load-holding valves.
+undissolved, the soft limit), a counterbalance valve's own spool dynamics (it opens at
+once with its pilot).
 
 The physics (flows, pressure rates, force) is written once, as the compiled functions
 below; the element's methods evaluate them (:class:`~pipeline.dynamics.forces.base.
@@ -82,6 +96,7 @@ CompiledElement`), and the numpy oracle is ``tests/dynamics/forces_numpy.py``.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any, ClassVar
 
@@ -94,7 +109,7 @@ from pipeline.dynamics.forces.base import CompiledElement, LineElement
 from pipeline.dynamics.forces.markers import line_geometry, marker_point
 from pipeline.kinematics.marker_names import marker_component
 
-__all__ = ["PID", "HydraulicCylinder", "anti_windup_time", "check_gains", "cylinder_push",
+__all__ = ["PID", "CounterbalanceValve", "HydraulicCylinder", "anti_windup_time", "check_gains", "cylinder_push",
            "cylinder_rates", "marker_measurement", "pid_law"]
 
 #: bar: the scale of a pressure state (Newton's and the error estimate's units)
@@ -105,7 +120,8 @@ PRESSURES = ("p_a", "p_b")
 # par columns of the packed element
 _AA, _AB, _L0, _STROKE, _VA0, _VB0, _BETA, _PS, _PT, _KV, _DPL, _LEAK, _VISC, _COUL, _VS, \
     _QP, _PR, _KR, _VS0, _SPOOL, _TAU, _WV, _ZV, _OVL, _KE, _CE, _AIR, \
-    _PID, _KP, _KI, _KD, _UMIN, _UMAX, _TT, _MEAS, _KFF, _MMK, _MCOMP = range(38)
+    _CBS, _KCB, _PSET, _PSI, _DPO, _VC0, \
+    _PID, _KP, _KI, _KD, _UMIN, _UMAX, _TT, _MEAS, _KFF, _MMK, _MCOMP = range(44)
 #: Pa: atmospheric pressure, the reference of the gauge pressures and of the air content
 ATMOSPHERE = 101325.0
 #: _MEAS of a controller on a marker's position (its point _MMK, its component _MCOMP)
@@ -218,6 +234,50 @@ def anti_windup_time(kp: float, ki: float, kd: float, given: float | None = None
 
 
 @dataclass(frozen=True)
+class CounterbalanceValve:
+    """A load-holding (counterbalance) valve between a cylinder's chamber on ``side``
+    ("a" or "b") and the directional valve's port (module docstring): a check valve lets
+    oil into the chamber freely; out of it the valve opens only where the chamber's
+    pressure plus ``pilot_ratio`` times the other chamber's (the pilot) exceeds
+    ``setting`` (Pa), fully over ``opening_range`` (Pa). Flow through it: ``nominal_flow``
+    (m^3/s) at ``nominal_drop`` (Pa), fully open. The line between the two valves holds
+    ``line_volume`` (m^3) at ``initial_pressure`` (Pa gauge) at the start."""
+
+    side: str
+    setting: float
+    pilot_ratio: float = 3.0
+    nominal_flow: float = 1e-3
+    nominal_drop: float = 10e5
+    opening_range: float = 10e5
+    line_volume: float = 1e-4
+    initial_pressure: float = 0.0
+
+    def __post_init__(self):
+        if self.side not in ("a", "b"):
+            raise ConfigError(f"counterbalance: side: expected 'a' (the piston side) or 'b' "
+                              f"(the rod side), got {self.side!r}")
+        for key in ("setting", "nominal_flow", "nominal_drop", "opening_range",
+                    "line_volume"):
+            x = getattr(self, key)
+            if isinstance(x, bool) or not isinstance(x, int | float) or not x > 0 \
+                    or not math.isfinite(x):
+                raise ConfigError(f"counterbalance: {key}: expected a number > 0, got {x!r}")
+        for key in ("pilot_ratio", "initial_pressure"):
+            x = getattr(self, key)
+            if isinstance(x, bool) or not isinstance(x, int | float) or not math.isfinite(x) \
+                    or (key == "pilot_ratio" and x < 0):
+                raise ConfigError(f"counterbalance: {key}: expected a finite number"
+                                  f"{' >= 0' if key == 'pilot_ratio' else ''}, got {x!r}")
+
+    def parameters(self) -> list[float]:
+        """(side 1 or 2, K = Q_nom / sqrt(dp_nom), setting, pilot ratio, opening range,
+        line volume): the packed element's counterbalance columns."""
+        return [1.0 if self.side == "a" else 2.0,
+                self.nominal_flow / math.sqrt(self.nominal_drop), self.setting,
+                self.pilot_ratio, self.opening_range, self.line_volume]
+
+
+@dataclass(frozen=True)
 class HydraulicCylinder(CompiledElement, LineElement):
     """Hydraulic cylinder with a 4/3 proportional valve (module docstring). SI units:
     m, m^3, Pa, m^3/s, N, s.
@@ -225,6 +285,8 @@ class HydraulicCylinder(CompiledElement, LineElement):
     ``dead_volume_a``/``_b`` default to 10 % of the chamber's full volume (add the
     hoses'); ``air_content`` is the volume fraction of undissolved air in the oil at
     atmospheric pressure (0: the constant ``bulk_modulus``; module docstring);
+    ``counterbalance`` a :class:`CounterbalanceValve` (or its fields as a mapping) on one
+    chamber;
     ``initial_pressures`` (Pa gauge) are the states at the start, one of them
     possibly ``"hold"``: the pressure that, with the other, holds the machine at rest
     where it starts (a loaded boom on a closed valve).
@@ -263,6 +325,7 @@ class HydraulicCylinder(CompiledElement, LineElement):
     end_stiffness: float | None = None
     end_damping: float = 0.0
     air_content: float = 0.0
+    counterbalance: Any = None
     KIND: ClassVar[int] = 8
     HISTORY: ClassVar[str] = "command"
 
@@ -277,11 +340,13 @@ class HydraulicCylinder(CompiledElement, LineElement):
         """(p_a, p_b), the supply line's p_s when a pump of given flow feeds it, and the
         spool's position x_v (and rate v_v) when it has dynamics."""
         return ("p_a", "p_b") + (("p_s",) if self.pump_flow is not None else ()) \
+            + (("p_c",) if self.counterbalance is not None else ()) \
             + ("x_v", "v_v")[:self.spool_order] + (("pid",) if self.controlled else ())
 
     @property
     def STATE_UNITS(self) -> tuple[str, ...]:
-        return ("Pa",) * (2 + (self.pump_flow is not None)) \
+        return ("Pa",) * (2 + (self.pump_flow is not None)
+                          + (self.counterbalance is not None)) \
             + ("1", "1/s")[:self.spool_order] + (("1",) if self.controlled else ())
 
     @property
@@ -308,6 +373,25 @@ class HydraulicCylinder(CompiledElement, LineElement):
             raise ConfigError(f"{where}: air_content: expected a volume fraction in [0, 1) "
                               f"(undissolved air at atmospheric pressure, e.g. 0.01), got "
                               f"{a!r}")
+        cb = self.counterbalance
+        if isinstance(cb, Mapping):
+            try:
+                cb = CounterbalanceValve(**cb)
+            except TypeError:
+                from dataclasses import fields
+
+                names = [f.name for f in fields(CounterbalanceValve)]
+                unknown = sorted(set(cb) - set(names))
+                what = f"unknown field {unknown[0]!r}" if unknown else \
+                    f"missing field(s) {sorted({'side', 'setting'} - set(cb))}"
+                raise ConfigError(f"{where}: counterbalance: {what}; its fields: {names} "
+                                  f"(side and setting needed)") from None
+            except ConfigError as exc:
+                raise ConfigError(f"{where}: {exc}") from None
+            object.__setattr__(self, "counterbalance", cb)
+        elif cb is not None and not isinstance(cb, CounterbalanceValve):
+            raise ConfigError(f"{where}: counterbalance: expected a CounterbalanceValve or "
+                              f"its fields, got {type(cb).__name__}")
         if not self.rod < self.bore:
             raise ConfigError(f"{where}: rod: expected a diameter below the bore "
                               f"({self.bore} m), got {self.rod}")
@@ -368,7 +452,7 @@ class HydraulicCylinder(CompiledElement, LineElement):
                 0.1 * ab * self.stroke if self.dead_volume_b is None else self.dead_volume_b)
 
     def parameters(self) -> np.ndarray:
-        """(38,) the packed parameters (the ``par`` row of the compiled form)."""
+        """(44,) the packed parameters (the ``par`` row of the compiled form)."""
         aa, ab = self.areas
         va, vb = self.dead_volumes
         pump = self.pump_flow is not None
@@ -382,7 +466,10 @@ class HydraulicCylinder(CompiledElement, LineElement):
                          self.spool_time_constant or 0.0,
                          2 * math.pi * (self.spool_frequency or 0.0), self.spool_damping,
                          self.spool_overlap, self.end_stiffness or 0.0, self.end_damping,
-                         self.air_content, *self._pid_parameters()], dtype=float)
+                         self.air_content,
+                         *(self.counterbalance.parameters() if self.counterbalance is not None
+                           else [0.0] * 6),
+                         *self._pid_parameters()], dtype=float)
 
     def _pid_parameters(self) -> tuple:
         """(flag, kp, ki, kd, u_min, u_max, T_t, the measured signal (-1 here: the packing
@@ -443,7 +530,8 @@ class HydraulicCylinder(CompiledElement, LineElement):
                 None)
 
     def initial_states(self) -> np.ndarray:
-        """(p_a, p_b[, p_s][, x_v[, v_v]]) at the start: pressures in Pa, NaN for a ``hold``
+        """(p_a, p_b[, p_s][, p_c][, x_v[, v_v]][, pid]) at the start: pressures in Pa, NaN
+        for a ``hold``
         pressure (found at the start so that the machine is at rest:
         pipeline.dynamics.held_states); the spool at rest where the command at t = 0 puts
         it."""
@@ -452,6 +540,8 @@ class HydraulicCylinder(CompiledElement, LineElement):
         p = [np.nan if x == "hold" else x for x in self.initial_pressures]
         if self.pump_flow is not None:
             p.append(self.initial_supply_pressure)
+        if self.counterbalance is not None:
+            p.append(self.counterbalance.initial_pressure)
         if self.spool_order:  # a controller's spool starts centred
             u = 0.0 if self.controlled else \
                 min(max(history_value(self.command, 0.0, self.name), -1.0), 1.0)
@@ -463,7 +553,8 @@ class HydraulicCylinder(CompiledElement, LineElement):
     def state_scales(self) -> np.ndarray:
         """A bar for a pressure; the spool's whole travel (and, second order, that per
         1 / w_v)."""
-        return np.array([PRESSURE_UNIT] * (2 + (self.pump_flow is not None))
+        return np.array([PRESSURE_UNIT] * (2 + (self.pump_flow is not None)
+                                           + (self.counterbalance is not None))
                         + [1.0, 2 * math.pi * (self.spool_frequency or 0.0)][:self.spool_order]
                         + [1.0] * self.controlled)
 
@@ -564,15 +655,19 @@ def opening(par, x):
 def valve_rates(par, u, length, sd, z, o, zd):
     """zd[o:] = the rates of the element's states z[o:] (module docstring: pressures, the
     supply line's, the spool's) at the command u, length (m) and stroke rate sd (m/s)."""
-    pump = par[_QP] > 0.0
-    k = o + 2 + (1 if pump else 0)  # the spool's states
+    pump = 1 if par[_QP] > 0.0 else 0
+    cb = 1 if par[_CBS] > 0.0 else 0
+    k = o + 2 + pump + cb  # the spool's states
     order = int(par[_SPOOL])
     x = u if order == 0 else z[k]
-    out = np.empty(3)
-    pressure_rates(par, length, sd, z[o], z[o + 1], z[o + 2] if pump else 0.0, x, out)
+    out = np.empty(4)
+    pressure_rates(par, length, sd, z[o], z[o + 1], z[o + 2] if pump else 0.0,
+                   z[o + 2 + pump] if cb else 0.0, x, out)
     zd[o], zd[o + 1] = out[0], out[1]
     if pump:
         zd[o + 2] = out[2]
+    if cb:
+        zd[o + 2 + pump] = out[3]
     u = min(max(u, -1.0), 1.0)
     if order == 1:
         zd[k] = (u - z[k]) / par[_TAU]
@@ -621,22 +716,48 @@ def command_rates(par, command, rate, length, sd, ym, ymd, q, v, z, o, zd):
 @njit(cache=True)
 def _state_count(par) -> int:
     """The element's number of states (STATES)."""
-    return 2 + (1 if par[_QP] > 0.0 else 0) + int(par[_SPOOL]) + (1 if par[_PID] > 0 else 0)
+    return 2 + (1 if par[_QP] > 0.0 else 0) + (1 if par[_CBS] > 0.0 else 0) \
+        + int(par[_SPOOL]) + (1 if par[_PID] > 0 else 0)
 
 
 @njit(cache=True)
-def pressure_rates(par, length, sd, pa, pb, psup, x, out):
-    """out (3,) = (p_a', p_b', p_s'), Pa/s, at the length (m), stroke rate sd (m/s),
-    pressures pa, pb and, with a pump of given flow, the supply line's psup (Pa), and
-    spool position x (module docstring); p_s' is 0 for a constant supply pressure."""
+def counterbalance_flow(par, pc, pl, pilot):
+    """Flow (m^3/s) from the line (pressure pl, Pa) into the chamber (pc) through the
+    counterbalance valve, the other chamber's pressure its ``pilot`` (module docstring):
+    the check valve's K f(max(pl - pc, 0)) less the relief's K a f(pc - pl), its opening
+    a = clip((pc + psi pilot - p_set) / dp_open, 0, 1)."""
+    lam = par[_DPL]
+    a = min(max((pc + par[_PSI] * pilot - par[_PSET]) / par[_DPO], 0.0), 1.0)
+    return par[_KCB] * (_orifice(max(pl - pc, 0.0), lam) - a * _orifice(pc - pl, lam))
+
+
+@njit(cache=True)
+def pressure_rates(par, length, sd, pa, pb, psup, pc, x, out):
+    """out (4,) = (p_a', p_b', p_s', p_c'), Pa/s, at the length (m), stroke rate sd (m/s),
+    pressures pa, pb, with a pump of given flow the supply line's psup, with a
+    counterbalance valve its line's pc (Pa), and spool position x (module docstring);
+    p_s' (p_c') is 0 without that pump (valve)."""
     s = length - par[_L0]
     up, un = opening(par, x), opening(par, -x)
     pump = par[_QP] > 0.0
     ps = psup if pump else par[_PS]
     pt, lam = par[_PT], par[_DPL]
-    qpa, qpb = up * _orifice(ps - pa, lam), un * _orifice(ps - pb, lam)
-    qa = par[_KV] * (qpa - un * _orifice(pa - pt, lam))
-    qb = par[_KV] * (qpb - up * _orifice(pb - pt, lam))
+    side = int(par[_CBS])
+    # the directional valve's work ports: the chambers', or the counterbalance line's
+    wa = pc if side == 1 else pa
+    wb = pc if side == 2 else pb
+    qpa, qpb = up * _orifice(ps - wa, lam), un * _orifice(ps - wb, lam)
+    qa = par[_KV] * (qpa - un * _orifice(wa - pt, lam))
+    qb = par[_KV] * (qpb - up * _orifice(wb - pt, lam))
+    out[3] = 0.0
+    if side == 1:  # port A feeds the line; the counterbalance valve feeds chamber a
+        q = counterbalance_flow(par, pa, pc, pb)
+        out[3] = effective_bulk_modulus(par, pc) / par[_VC0] * (qa - q)
+        qa = q
+    elif side == 2:
+        q = counterbalance_flow(par, pb, pc, pa)
+        out[3] = effective_bulk_modulus(par, pc) / par[_VC0] * (qb - q)
+        qb = q
     ql = par[_LEAK] * (pa - pb)
     # a stroke beyond the ends (into the end stops, or without them: the run's checks
     # report it) must not empty a chamber: its volume is kept above a tenth of its dead
