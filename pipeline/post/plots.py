@@ -53,11 +53,13 @@ def panels_figure(panels, *, suptitle: str | None = None, ncols: int = 1):
         if p.curves and all(len(c.y) == 1 for c in p.curves):
             _bars(ax, p)  # one value per case (statics): a bar chart, not dots over "time"
             continue
-        for c in p.curves:
-            if c.style:
-                ax.plot(c.x, c.y, c.style, label=c.label)
-            else:
-                ax.plot(c.x, c.y, label=c.label, marker="o" if len(c.x) < 15 else None)
+        lines = [ax.plot(c.x, c.y, c.style, label=c.label)[0] if c.style else
+                 ax.plot(c.x, c.y, label=c.label, marker="o" if len(c.x) < 15 else None)[0]
+                 for c in p.curves]
+        if not p.equal:  # histories (a path's x is no time: it has no extreme)
+            labelled = len(p.curves) <= MAX_LABELLED_EXTREMES
+            for i, (c, line) in enumerate(zip(p.curves, lines, strict=True)):
+                _mark_extreme(ax, c, line.get_color(), p.xlabel, i if labelled else None)
         if p.equal:  # a path: one metre is as long across as up
             ax.set_aspect("equal", adjustable="datalim")
         ax.set_title(p.title, fontsize=10)
@@ -73,6 +75,30 @@ def panels_figure(panels, *, suptitle: str | None = None, ncols: int = 1):
     if suptitle:
         fig.suptitle(suptitle, fontsize=11)
     return fig
+
+
+#: a panel with more curves marks their extremes without writing each value (the labels
+#: would hide the lines)
+MAX_LABELLED_EXTREMES = 3
+
+
+def _mark_extreme(ax, c: Curve, color, xlabel: str, row: int | None) -> None:
+    """Ring the point of largest |y| of curve c (the first, on a tie) and, given its
+    label ``row`` (the curve's place in the panel), write its value and where: what a
+    reader of a history looks for first. A curve that stays at 0 has none."""
+    y, x = np.asarray(c.y, dtype=float), np.asarray(c.x, dtype=float)
+    if y.size < 2 or not np.isfinite(y).any() or np.nanmax(np.abs(y)) == 0.0:
+        return
+    k = int(np.nanargmax(np.abs(y)))
+    ax.plot([x[k]], [y[k]], "o", mfc="none", ms=8, mew=1.5, color=color, label="_extreme")
+    if row is not None:
+        unit = " s" if xlabel.startswith("time") else ""
+        # late in the span the label reads leftwards (inside the axes); the curves'
+        # labels are stacked so that coinciding extremes stay legible
+        late = x[k] > np.nanmin(x) + 0.7 * np.ptp(x[np.isfinite(x)])
+        ax.annotate(f"{y[k]:.3g} at {x[k]:.3g}{unit}", (x[k], y[k]),
+                    xytext=(-6 if late else 6, 4 - 10 * row), textcoords="offset points",
+                    ha="right" if late else "left", fontsize=7, color=color)
 
 
 def _bars(ax, p: Panel) -> None:

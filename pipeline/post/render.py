@@ -57,11 +57,28 @@ def mode_scale(link: ReducedLink, fraction: float = 0.08) -> np.ndarray:
 
 def render_modes(link: ReducedLink, path: str | Path, n_modes: int = 4,
                  window_size: tuple[int, int] = (1200, 900)) -> Path:
-    """Still of the first ``n_modes`` mode shapes (2 x 2 panels), PNG, written atomically.
+    """Still of the first ``n_modes`` mode shapes (:func:`mode_sheet_plotter`), PNG,
+    written atomically; returns the path."""
+    plotter = mode_sheet_plotter(link, n_modes, window_size)
+    try:
+        image = plotter.screenshot(return_img=True)
+    finally:
+        plotter.close()
+    return save_png(image, path)
 
-    Each panel shows the undeformed link in grey wireframe and the mode
-    deformed by the stated scale factor, coloured by displacement magnitude
-    (per unit modal coordinate, m).
+
+def mode_sheet_plotter(link: ReducedLink, n_modes: int = 4,
+                       window_size: tuple[int, int] = (1200, 900), frames: bool = True):
+    """An off-screen pyvista Plotter of the first ``n_modes`` mode shapes (2 x 2 panels;
+    the caller screenshots or shows it, and closes it).
+
+    Each panel shows the undeformed link in grey wireframe and the mode deformed by the
+    stated scale factor, coloured by displacement magnitude (per unit modal coordinate,
+    m); with ``frames``, a triad of the link frame's axes beside the link (x red, y
+    green, z blue: the directions the modes move in) and a magenta block on each
+    interface the modes are clamped at
+    (spheres at a pinned chord's ends), what they are relative to written in the first
+    panel.
     """
     pv = _pyvista()
     n = min(n_modes, link.n_modes)
@@ -69,6 +86,7 @@ def render_modes(link: ReducedLink, path: str | Path, n_modes: int = 4,
         raise ConfigError(f"link {link.name!r}: no modes to render")
     rows, cols = (1, n) if n <= 2 else (2, (n + 1) // 2)
     scales = mode_scale(link)
+    conditions = link.summary().get("reference_conditions") if frames else None
     plotter = pv.Plotter(off_screen=True, shape=(rows, cols), window_size=window_size,
                          border=False)
     try:
@@ -81,13 +99,47 @@ def render_modes(link: ReducedLink, path: str | Path, n_modes: int = 4,
             plotter.add_mesh(link_grid(link), style="wireframe", color="lightgrey", opacity=0.3)
             plotter.add_mesh(deformed, scalars="displacement per unit q (m)", cmap="viridis",
                              show_scalar_bar=(k == 0), line_width=4)
-            plotter.add_text(f"mode {k + 1}: {link.frequencies_hz[k]:.4g} Hz "
-                             f"(scale x{scales[k]:.3g})", font_size=10)
+            if frames:
+                _link_frame(pv, plotter, link)
+            text = f"mode {k + 1}: {link.frequencies_hz[k]:.4g} Hz (scale x{scales[k]:.3g})"
+            if conditions and k == 0:
+                text += f"\n{conditions}"
+            plotter.add_text(text, font_size=10)
             plotter.view_isometric()
-        image = plotter.screenshot(return_img=True)
-    finally:
+    except BaseException:
         plotter.close()
-    return save_png(image, path)
+        raise
+    return plotter
+
+
+def _link_frame(pv, plotter, link: ReducedLink) -> None:
+    """The link frame's axes as a triad beside the link (off a lower corner, where the
+    link does not hide it; pyvista's corner widget does not draw off screen) and the
+    clamped interfaces, in flat colours (a picture's reader, and its test, find them by
+    colour)."""
+    size = float(np.ptp(link.nodes, axis=0).max())
+    lo, hi = link.nodes.min(axis=0), link.nodes.max(axis=0)
+    # to the side in an isometric view (along x - y), neither behind nor before the link
+    corner = np.array([hi[0], lo[1], lo[2]]) + 0.3 * size * np.array([1.0, -1.0, 0.0])
+    for axis, colour in zip(np.eye(3), ("red", (0.0, 0.6, 0.0), "blue"), strict=True):
+        plotter.add_mesh(pv.Arrow(start=corner, direction=axis, scale=0.2 * size,
+                                  shaft_radius=0.04, tip_radius=0.1),
+                         color=colour, lighting=False)
+    rc = link.meta.get("reference_conditions") or {}
+    where = {f.name: f.pose[:3, 3] for f in link.frames}
+    clamped = [rc.get("reference")] + list(rc.get("craig_bampton") or [])
+    if rc.get("chord"):  # pinned, not clamped
+        for name in (rc.get("reference"), rc["chord"]):
+            if name in where:
+                plotter.add_mesh(pv.Sphere(radius=0.06 * size, center=where[name]),
+                                 color="magenta",
+                                 lighting=False)
+        return
+    for name in clamped:
+        if name in where:
+            edge = 0.08 * size  # beyond a slender link's section
+            plotter.add_mesh(pv.Cube(center=where[name], x_length=edge, y_length=edge,
+                                     z_length=edge), color="magenta", lighting=False)
 
 
 def save_png(image: np.ndarray, path: str | Path) -> Path:
