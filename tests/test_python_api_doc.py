@@ -13,6 +13,7 @@ ROOT = Path(__file__).resolve().parents[1]
 pytestmark = [pytest.mark.gmsh, pytest.mark.render]
 
 
+@pytest.mark.slow  # budget of the default run: .ci/run's slow run has it
 def test_python_api_page_runs(tmp_path, monkeypatch):
     monkeypatch.chdir(ROOT)
     result = doctest.testfile(

@@ -283,6 +283,7 @@ def test_loader_study_names_a_count_per_flexible_link(tmp_path, links):
     assert rec["lower_link"]["recommended"] == rec["upper_link"]["recommended"] == "0"
 
 
+@pytest.mark.slow  # budget of the default run: .ci/run's slow run has it
 def test_workers_that_cannot_see_the_clients_files_give_the_local_results(local, links,
                                                                           tmp_path):
     """Issue 26 (7): the workers are started in a mount namespace of their own with an

@@ -89,6 +89,7 @@ def test_flexible_case_conserves_energy_and_bends(run):
     assert r.extra["closure_residual"].max() < 1e-10
 
 
+@pytest.mark.slow  # budget of the default run: .ci/run's slow run has it
 def test_geometric_stiffening_keeps_the_energy_of_the_chaotic_swing(run, quick_run):
     """Both bars carry geometric stiffening (the shipped workflow): whipping at up to
     100 rad/s, their own spin and accelerations stiffen them through their second-order

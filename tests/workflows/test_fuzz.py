@@ -46,6 +46,7 @@ def _run(tmp_path, n, seed):
     return out
 
 
+@pytest.mark.slow  # budget of the default run: .ci/run's slow run has it
 def test_fuzz_workflows_and_link_specs(tmp_path):
     out = _run(tmp_path, 300, seed=1)
     assert len(out.get("clear", [])) > 100  # most mutants are invalid, and refused

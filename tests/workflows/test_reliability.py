@@ -114,6 +114,7 @@ def _complete(final: Path) -> bool:
     return texts == {f"{man['tag']}{man['k']}"}
 
 
+@pytest.mark.slow  # budget of the default run: .ci/run's slow run has it
 def test_a_kill_at_any_instant_of_the_swap_leaves_old_or_new_results(tmp_path):
     script = tmp_path / "swap.py"
     script.write_text(SWAPPER)
