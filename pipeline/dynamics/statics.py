@@ -43,7 +43,7 @@ from pipeline.kinematics.failures import ClosureError, SingularConfigurationErro
 from pipeline.kinematics.partition import Partition
 
 __all__ = ["ReducedCoordinates", "StaticResult", "reduced_coordinates", "reduced_static_force",
-           "static_equilibrium", "static_forces", "velocity_transform"]
+           "static_equilibrium", "static_forces", "trapped_states", "velocity_transform"]
 
 
 @dataclass(frozen=True)
@@ -75,6 +75,8 @@ class StaticResult:
     Q : (n,) total static generalized force at q (gravity + elastic + elements).
     iterations, success, message.
     reduced : the coordinate split used (None if the start could not be assembled).
+    z : (nz,) the force elements' states at q (as given, or with ``trapped`` those the
+        trapped oil has there), None without them.
     """
 
     q: np.ndarray
@@ -86,15 +88,18 @@ class StaticResult:
     success: bool
     message: str
     reduced: ReducedCoordinates | None = None
+    z: np.ndarray | None = None
 
 
 def static_forces(system, q: np.ndarray, t: float = 0.0, qd: np.ndarray | None = None,
-                  z: np.ndarray | None = None):
+                  z=None):
     """(n,) Q_gravity + Q_elastic + sum of the force elements at (q, qd = 0 by default, t)
-    and the elements' states z (nz,) (None: an element with states refuses)."""
+    and the elements' states z (nz,) (None: an element with states refuses; a callable:
+    the states at q, z(q), e.g. :func:`trapped_states`)."""
     q = np.asarray(q, dtype=float)
     qd = np.zeros_like(q) if qd is None else np.asarray(qd, dtype=float)
     tree = evaluate_tree(system.mechanism, q)
+    z = z(q) if callable(z) else z
     return gravity_force(system, tree, q) + elastic_forces(system, q, qd)[0] \
         + system.compiled_forces.forces(tree, q, qd, t, z)[0]
 
@@ -205,12 +210,34 @@ def _line_search(system, q, red, xv, dx, f, t, z=None):
     return None if f_new is None else (step * 2.0, f_new, q_new)
 
 
+def trapped_states(system, q_ref: np.ndarray, z_ref: np.ndarray, t: float = 0.0):
+    """The force elements' states as a function of q (n,) -> (nz,), from z_ref (nz,) at
+    q_ref (n,): each element's ``trapped_states`` (a hydraulic cylinder behind a closed
+    valve: its chambers' pressures follow the stroke, the oil compressed or relieved),
+    an element without one keeping its states."""
+    z_ref = np.asarray(z_ref, dtype=float)
+    if z_ref.shape != (len(system.state_names),):
+        raise ConfigError(f"trapped states: z: expected {len(system.state_names)} values "
+                          f"({list(system.state_names)}), got shape {z_ref.shape}")
+    laws = [(sl, f.trapped_states(system, q_ref, z_ref[sl], t))
+            for f, sl in system.state_slices if hasattr(f, "trapped_states")]
+
+    def states(q):
+        z = z_ref.copy()
+        for sl, law in laws:
+            z[sl] = law(q)
+        return z
+    return states
+
+
 def static_equilibrium(system, q_guess: np.ndarray, *, t: float = 0.0, hold=(),
                        tol: float = 1e-10, max_iter: int = 30,
-                       z: np.ndarray | None = None) -> StaticResult:
+                       z: np.ndarray | None = None, trapped: bool = False) -> StaticResult:
     """Static equilibrium near q_guess (drivers at time t; ``hold``: names held fixed;
     force elements with states of their own held at the states z (nz,), e.g. given
-    cylinder pressures; without z such an element refuses).
+    cylinder pressures; without z such an element refuses). With ``trapped`` the states
+    z are those at q_guess and follow q as :func:`trapped_states` says (oil sealed behind
+    a closed valve: the statics finds where its compression holds the load).
 
     Converged when |f| <= tol * (|B^T Q_gravity| + |B^T Q_elements| + 1 N).
     Newton steps are halved while |f| grows (up to 10 times). Failure (no
@@ -229,6 +256,11 @@ def static_equilibrium(system, q_guess: np.ndarray, *, t: float = 0.0, hold=(),
                             f"cannot assemble the start: {exc}")
     names = tuple(system.mechanism.coordinates[i] for i in red.x)
     xv = q[red.x].copy()
+    if trapped:
+        if z is None:
+            raise ConfigError("static_equilibrium: trapped: expected the states z the oil is "
+                              "trapped at (at q_guess)")
+        z = trapped_states(system, q, z, t)
     f, q = reduced_static_force(system, q, red, xv, t, z)
     D, msg = np.zeros((xv.size, xv.size)), None
     for it in range(max_iter + 1):
@@ -251,4 +283,6 @@ def static_equilibrium(system, q_guess: np.ndarray, *, t: float = 0.0, hold=(),
     if msg is None:
         msg = "converged" if ok else (f"not converged after {max_iter} iterations: |f| = "
                                       f"{np.abs(f).max():.3e}")
-    return StaticResult(q, names, f, -D, static_forces(system, q, t, z=z), it, ok, msg, red)
+    zq = z(q) if callable(z) else (None if z is None else np.asarray(z, dtype=float))
+    return StaticResult(q, names, f, -D, static_forces(system, q, t, z=z), it, ok, msg, red,
+                        zq)

@@ -111,8 +111,20 @@ def run_kinematic(m: Machine, a, path) -> dict:
 
 
 def run_static(m: Machine, a, path) -> dict:
-    r = static_equilibrium(m.system, m.q0, t=a.t, hold=_hold(m, a.hold, *path, "hold"))
+    hold = _hold(m, a.hold, *path, "hold")
+    if a.trapped and m.system.state_slices:  # the oil behind closed valves
+        try:
+            r = static_equilibrium(m.system, m.q0, t=a.t, hold=hold,
+                                   z=_start_states(m, a.t), trapped=True)
+        except ConfigError as exc:
+            raise m.workflow.error(*path, "trapped", msg=str(exc)) from None
+    else:
+        r = static_equilibrium(m.system, m.q0, t=a.t, hold=hold)
     z = np.zeros((1, m.mechanism.n))
+    states = {} if r.z is None else {
+        name: (unit, np.array([value])) for name, unit, value in
+        zip(m.system.state_names, [u for f, _ in m.system.state_slices for u in f.STATE_UNITS],
+            r.z, strict=True)}
     return {
         "success": r.success,
         "message": r.message,
@@ -125,6 +137,7 @@ def run_static(m: Machine, a, path) -> dict:
             "iterations": r.iterations,
             "unknowns": np.array(r.coordinates, dtype=object),
         },
+        **({"states": states} if states else {}),
     }
 
 

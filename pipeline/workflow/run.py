@@ -102,13 +102,14 @@ def check_outputs(wf: Workflow, m: Machine) -> None:
     stateful = [f.name for f, _ in m.system.state_slices]
     for i, a in enumerate(wf.spec.analyses):
         if stateful and a.type not in ("kinematic", "linearised") and not (
-                a.type == "dynamic" and a.method == "generalized_alpha"):
+                a.type == "dynamic" and a.method == "generalized_alpha") and not (
+                a.type == "static" and a.trapped):
             what = a.type if a.type != "dynamic" else f"dynamic, method {a.method}"
             raise wf.error("analyses", i, "type", msg=(
                 f"force element(s) {stateful} have states of their own (hydraulic "
                 f"pressures) that only a dynamic analysis by method generalized_alpha "
-                f"integrates, or a linearised one holds at their start values; this one is "
-                f"{what}"))
+                f"integrates, a linearised one holds at their start values, or a static "
+                f"one with trapped: true traps behind closed valves; this one is {what}"))
         for k, marker in enumerate(a.markers):
             link, _, frame = marker.partition(".")
             frames = [f.name for f in mech.links[mech.link_index(link)].frames] \

@@ -305,6 +305,11 @@ class StaticAnalysis(_Analysis):
     type: Literal["static"]
     t: float = Field(0.0, description="time at which the drivers are evaluated, s")
     hold: list[str] = Field(default_factory=list, description="coordinates held fixed")
+    trapped: bool = Field(False, description="hydraulic oil trapped behind closed valves: "
+                                             "the chamber pressures start at their start "
+                                             "values and follow the stroke (the statics "
+                                             "finds where the compressed oil holds the "
+                                             "load)")
 
 
 class KinetostaticAnalysis(_Timed):

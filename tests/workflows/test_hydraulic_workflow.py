@@ -214,3 +214,27 @@ def test_air_and_a_counterbalance_valve_are_written_in_the_workflow(tmp_path):
     with pytest.raises(ConfigError, match=r"lift\.yaml:\d+: forces\[0\].*counterbalance: "
                                           r"unknown field 'pilot_ration'"):
         build_machine(load_workflow(_write(tmp_path, bad)), tmp_path / "links")
+
+
+def test_a_static_analysis_traps_the_oil_behind_the_closed_valve(tmp_path):
+    """``trapped: true``: the pressures start at their start values and follow the
+    stroke; the pose and pressures are the Python API's (tests/solver/
+    test_hydraulic_trapped.py has the closed form)."""
+    from pipeline.dynamics import static_equilibrium
+
+    text = LIFT.replace(f"initial_pressures: [hold, {PB0}]", "initial_pressures: [10.0e5, 10.0e5]")
+    text = text.replace("  - name: raise\n    type: dynamic",
+                        "  - name: hold\n    type: static\n    trapped: true\n"
+                        "  - name: raise\n    type: dynamic")
+    res = run_workflow(_write(tmp_path, text), out_root=tmp_path / "out", outputs=False)
+    r = res.result("hold", "")
+    assert r.success, r.message
+    system, _ = _lift(SmoothStep(0.0, 0.2, 0.0, 0.6), initial_pressures=(10e5, 10e5))
+    ref = static_equilibrium(system, np.array([S0]), z=np.array([10e5, 10e5]), trapped=True)
+    assert abs(r.q[0, 0] - ref.q[0]) < 1e-12 and S0 - ref.q[0] > 1e-4
+    unit, pa = r.states["lift.p_a"]
+    assert unit == "Pa" and pa[0] == pytest.approx(ref.z[0], rel=1e-12)
+    opened = text.replace("v0: 0.0, v1: 0.6}", "v0: 0.3, v1: 0.6}")  # open at t = 0
+    with pytest.raises(ConfigError, match=r"analyses\[0\]\.trapped: force element 'lift': "
+                                          r"trapped: its valve is open"):
+        run_workflow(_write(tmp_path, opened), out_root=tmp_path / "out2", outputs=False)

@@ -558,6 +558,70 @@ class HydraulicCylinder(CompiledElement, LineElement):
                         + [1.0, 2 * math.pi * (self.spool_frequency or 0.0)][:self.spool_order]
                         + [1.0] * self.controlled)
 
+    def stroke_at(self, system, q) -> float:
+        """The stroke s (m) at coordinates q (n,): the markers' distance less
+        ``length_retracted``."""
+        from pipeline.dynamics.forces.base import marker_pose
+        from pipeline.kinematics import evaluate_tree
+
+        tree = evaluate_tree(system.mechanism, q, derivatives=False)
+        a, b = (marker_pose(system, *m, tree, q)[:3, 3] for m in (self.marker_a, self.marker_b))
+        return float(np.linalg.norm(b - a)) - self.length_retracted
+
+    def sealed_pressure(self, p0: float, ratio: float) -> float:
+        """The pressure (Pa gauge) of oil sealed at p0 (Pa gauge) once its volume is
+        ``ratio`` times what it was: dp = -beta_e(p) dV / V integrated, in closed form,
+        ln(V / V0) = -[(P - P0) / beta + ln(P / P0) - (1 + a / beta) ln((P + a) / (P0 + a))]
+        with P the absolute pressures and a = alpha p0 (module docstring; without air,
+        p0 - beta ln(ratio)), solved for P."""
+        beta, alpha = self.bulk_modulus, self.air_content
+        if alpha == 0.0:
+            return p0 - beta * math.log(ratio)
+        from scipy.optimize import brentq
+
+        a, P0 = alpha * ATMOSPHERE, p0 + ATMOSPHERE
+
+        def residual(p):
+            P = p + ATMOSPHERE
+            return math.log(ratio) + (P - P0) / beta + math.log(P / P0) \
+                - (1.0 + a / beta) * math.log((P + a) / (P0 + a))
+
+        return brentq(residual, 1e-6 * ATMOSPHERE - ATMOSPHERE, p0 + 100.0 * beta,
+                      xtol=1e-9, rtol=1e-14)
+
+    def trapped_states(self, system, q_ref, z_ref, t: float = 0.0):
+        """The element's states as a function of q (n,) -> (k,), sealed at z_ref (k,) at
+        q_ref (n,): behind the closed valve each chamber's oil is compressed or relieved
+        by the stroke (:meth:`sealed_pressure` of its volume's ratio); the other states
+        (a supply or counterbalance line, the spool, a controller) keep theirs. A
+        ConfigError where the valve is open at t (its command beyond the spool's overlap)
+        or a controller commands it."""
+        from pipeline.dynamics.forces.loads import history_value
+
+        where = f"force element '{self.name}': trapped"
+        if self.controlled:
+            raise ConfigError(f"{where}: a controller commands its valve: the oil is not "
+                              f"trapped")
+        u = history_value(self.command, t, self.name)
+        if abs(u) > max(self.spool_overlap, 0.0):
+            raise ConfigError(f"{where}: its valve is open at t = {t:g} s (command {u:g}); "
+                              f"the oil is trapped behind a closed valve only")
+        z_ref = self.own_states(z_ref)
+        aa, ab = self.areas
+        va0, vb0 = self.dead_volumes
+
+        def volumes(s):
+            return va0 + aa * s, vb0 + ab * (self.stroke - s)
+
+        ref = volumes(self.stroke_at(system, q_ref))
+
+        def states(q):
+            z = z_ref.copy()
+            for k, v in enumerate(volumes(self.stroke_at(system, q))):
+                z[k] = self.sealed_pressure(float(z_ref[k]), v / ref[k])
+            return z
+        return states
+
     def run_checks(self, system, r) -> list[str]:
         """What the model leaves out and a run ``r`` (SimulationResult) reached: a stroke
         outside [0, stroke] (no end stops yet) or a pressure below -1 bar gauge
