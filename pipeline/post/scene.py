@@ -91,12 +91,16 @@ class Style:
     font_px : label height, pixels.
     color : what flexible links are coloured by: "displacement" (elastic, mm) or
         "von_mises" (stress, MPa; links with stress modes, the others grey).
+    frames : draw every link's frames (joint frames, interfaces, markers) as triads, x
+        red, y green, z blue (a revolute or prismatic joint's axis is its frames' z), the
+        links see-through: a model's preview.
     """
 
     line_px: float = 6.0
     up: tuple | None = None
     font_px: int = 16
     color: str = "displacement"
+    frames: bool = False
 
 
 def _polydata(pv, points, triangles=None, lines=None):
@@ -501,10 +505,20 @@ def render_positions(path, mech, shapes, Q, labels=None, *, scale: float = 1.0,
             for (m, shp, _), g in zip(scene, ghost_q, strict=True):
                 _Drawn(plotter, pv, m, shp, g, 0.0, clim, style, ghost=True)
         for m, shp, q in scene:
+            # see-through where the frames are drawn: most sit inside their link
             _Drawn(plotter, pv, m, shp, q, scale, clim, style,
-                   opacity=1.0 if len(scene) == 1 else 0.9)
+                   opacity=0.35 if style.frames else 1.0 if len(scene) == 1 else 0.9)
             _Pivots(plotter, pv, m, q, style, shp, scale)
         bounds = scene_bounds(mech, shapes, Q, scale)
+        if style.frames:  # framed with the frames (a marker may sit off its link)
+            drawn = [(m, drawn_configuration(m, q, scale)) for m, _, q in scene]
+            origins = np.array([P[:3, 3] for m, q in drawn for _, P in frame_poses(m, q)])
+            if origins.size:
+                bounds = np.column_stack([np.minimum(bounds[:, 0], origins.min(axis=0)),
+                                          np.maximum(bounds[:, 1], origins.max(axis=0))])
+            for m, q in drawn:
+                _triads(plotter, pv, m, q,
+                        0.04 * float(np.linalg.norm(bounds[:, 1] - bounds[:, 0])), style)
         extra = _furniture(plotter, pv, bounds, camera, style)
         _bar(plotter, scale, clim, style.color)
         if title:
@@ -519,6 +533,29 @@ def render_positions(path, mech, shapes, Q, labels=None, *, scale: float = 1.0,
     finally:
         plotter.close()
     return Picture(save_png(image, path), boxes)
+
+
+def frame_poses(mech, q) -> tuple[tuple[str, np.ndarray], ...]:
+    """("link.frame", (4, 4) pose in ground) of every frame of every link at q (n,)."""
+    from pipeline.kinematics.poses import step_pose
+
+    tree = evaluate_tree(mech, q, derivatives=False)
+    return tuple((f"{link.name}.{f.name}", step_pose(mech.marker(link.name, f.name), tree.A, q))
+                 for link in mech.links for f in link.frames)
+
+
+def _triads(plotter, pv, mech, q, length: float, style: Style) -> None:
+    """Each frame at q as three lines of ``length`` (m): x red, y green, z blue (flat
+    colours)."""
+    poses = [P for _, P in frame_poses(mech, q)]
+    if not poses:
+        return
+    for axis, colour in enumerate(("red", (0.0, 0.6, 0.0), "blue")):
+        points = np.concatenate([[P[:3, 3], P[:3, 3] + length * P[:3, axis]] for P in poses])
+        lines = np.column_stack([np.full(len(poses), 2), np.arange(0, 2 * len(poses), 2),
+                                 np.arange(1, 2 * len(poses), 2)]).ravel()
+        plotter.add_mesh(pv.PolyData(points, lines=lines), color=colour, lighting=False,
+                         line_width=0.5 * style.line_px, render_lines_as_tubes=False)
 
 
 def animate_machine(path, mech, shapes, t, Q, *, scale: float = 1.0, fps: int = 15,
