@@ -32,6 +32,7 @@ register("run", "run", "run a workflow: analyses, plots, renders, exports into o
 register("study", "study", "mode-truncation and design studies of a workflow on Dask")
 register("cache", "cache", "list or clear the shared cache of reduced links")
 register("report", "report", "make a finished run's HTML report again from its folder")
+register("render", "render", "draw a finished run's pictures again from its saved results")
 register("preview", "preview", "build a workflow's machine and picture it with its frames, "
                                "before any analysis")
 
