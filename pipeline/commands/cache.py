@@ -4,15 +4,14 @@ from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
+
+from pipeline.commands import add_links_arg
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("action", nargs="?", choices=("list", "clear"), default="list",
                         help="list the artifacts (default) or delete them")
-    parser.add_argument("--links", type=Path, default=None,
-                        help="the reduced-link cache (default: $FLEXMECH_LINKS, else "
-                             "output/links)")
+    add_links_arg(parser)
     parser.add_argument("--name", default=None,
                         help="only the artifacts of this link spec name")
     parser.add_argument("--older-than", type=float, default=None, metavar="DAYS",

@@ -7,6 +7,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from pipeline.commands import add_links_arg
+
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("run", type=Path,
@@ -15,9 +17,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         metavar="outputs.PATH=VALUE",
                         help="draw otherwise, e.g. outputs.renders.still.scale=50 "
                              "(repeatable)")
-    parser.add_argument("--links", type=Path, default=None,
-                        help="the reduced-link cache (default: $FLEXMECH_LINKS, else "
-                             "output/links), shared with reduce, run and study")
+    add_links_arg(parser)
 
 
 def run(args: argparse.Namespace) -> int:

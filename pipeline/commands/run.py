@@ -5,18 +5,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from pipeline.commands import add_links_arg, add_workflow_args
+
 
 def add_args(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("workflow", type=Path, help="workflow YAML (see workflows/)")
-    parser.add_argument("--set", dest="sets", action="append", default=[], metavar="PATH=VALUE",
-                        help="override a value, e.g. analyses.swing.t_end=0.5 (repeatable)")
-    parser.add_argument("--quick", action="store_true",
-                        help="coarse meshes and short runs (the file's quick: overrides)")
+    add_workflow_args(parser)
     parser.add_argument("--out", type=Path, default=Path("output"),
                         help="results go to OUT/<name>/ (default: output)")
-    parser.add_argument("--links", type=Path, default=None,
-                        help="the reduced-link cache (default: $FLEXMECH_LINKS, else "
-                             "output/links), shared with reduce, validate --build and study")
+    add_links_arg(parser)
     parser.add_argument("--rebuild", action="store_true", help="ignore cached reduced links")
     parser.add_argument("--workers", type=int, default=0,
                         help="processes for analysis cases (default: one per core)")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from pipeline.commands import add_links_arg
 from pipeline.core.errors import ConfigError
 
 
@@ -16,10 +17,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="processes of the local Dask cluster (default 2)")
     parser.add_argument("--scheduler", default=None,
                         help="address of an existing Dask scheduler, e.g. tcp://host:8786")
-    parser.add_argument("--links", type=Path, default=None,
-                        help="the reduced-link cache, shared with the workers and with "
-                             "reduce, validate --build and run (default: $FLEXMECH_LINKS, "
-                             "else output/links)")
+    add_links_arg(parser)
     parser.add_argument("--worker-timeout", type=float, default=None, metavar="SECONDS",
                         help="end the cases left as 'lost' once the cluster has had no worker "
                              "for this long (default 120)")

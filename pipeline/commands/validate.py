@@ -3,19 +3,15 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
+
+from pipeline.commands import add_links_arg, add_workflow_args
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("workflow", type=Path, help="workflow YAML (see workflows/)")
-    parser.add_argument("--set", dest="sets", action="append", default=[], metavar="PATH=VALUE",
-                        help="override a value, e.g. analyses.swing.t_end=0.5 (repeatable)")
-    parser.add_argument("--quick", action="store_true", help="apply the file's quick: overrides")
+    add_workflow_args(parser)
     parser.add_argument("--build", action="store_true",
                         help="also build the machine (reduces links; checks every name)")
-    parser.add_argument("--links", type=Path, default=None,
-                        help="the reduced-link cache (default: $FLEXMECH_LINKS, else "
-                             "output/links), shared with reduce, run and study")
+    add_links_arg(parser)
 
 
 def run(args: argparse.Namespace) -> int:
