@@ -1,6 +1,6 @@
 """Co-simulation: blocks advanced at a macro step beside the machine, each an FMU (a
-controller or a circuit block exported by another tool, FMI 2 co-simulation, run through
-fmpy) or a built-in sampled controller (:class:`SampledPID`, a digital PID's rhythm).
+controller or a circuit block exported by another tool, FMI 2 or FMI 3 co-simulation, run
+through fmpy) or a built-in sampled controller (:class:`SampledPID`, a digital PID's rhythm).
 
 The master loop, at each communication point t_k of the macro step H:
 
@@ -53,7 +53,7 @@ __all__ = ["FMU", "SampledPID", "cosimulate", "coupling_estimate", "signal"]
 
 @dataclass(frozen=True)
 class FMU:
-    """An FMU (FMI 2 co-simulation) in a co-simulation: its file ``path``, its ``inputs``
+    """An FMU (FMI 2 or 3 co-simulation) in a co-simulation: its file ``path``, its ``inputs``
     ({FMU input variable: the machine's signal}, :func:`signal`), its ``outputs`` ({FMU
     output variable: the Simulator input it drives}) and the start values of its
     ``parameters`` ({variable: value}, set before its initialisation)."""
@@ -205,7 +205,6 @@ class _Slave:
     def __init__(self, spec: FMU, sim, t0: float, label: str):
         try:
             from fmpy import extract, read_model_description
-            from fmpy.fmi2 import FMU2Slave
         except ImportError:
             raise ConfigError("co-simulation needs fmpy (pip install fmpy, or the 'fmi' "
                               "extra)") from None
@@ -220,9 +219,10 @@ class _Slave:
         if md.coSimulation is None:
             raise ConfigError(f"{self.where}: has no co-simulation interface (model "
                               "exchange only); export it for co-simulation")
-        if not md.fmiVersion.startswith("2."):
+        self.fmi3 = md.fmiVersion.startswith("3.")
+        if not (self.fmi3 or md.fmiVersion.startswith("2.")):
             raise ConfigError(f"{self.where}: FMI {md.fmiVersion}; this master runs FMI 2 "
-                              "co-simulation FMUs (FMI 3: not yet)")
+                              "and FMI 3 co-simulation FMUs")
         variables = {v.name: v for v in md.modelVariables}
 
         def refs(names, causalities, what):
@@ -232,10 +232,10 @@ class _Slave:
                 if v is None:
                     raise ConfigError(f"{self.where}: {what} {name!r}: no such variable; its "
                                       f"variables: {sorted(variables)}")
-                if v.causality not in causalities or v.type != "Real":
+                if v.causality not in causalities or v.type not in ("Real", "Float64"):
                     raise ConfigError(f"{self.where}: {what} {name!r}: expected a Real of "
-                                      f"causality {' or '.join(causalities)}, got a "
-                                      f"{v.type} {v.causality}")
+                                      f"causality {' or '.join(causalities)} (FMI 3: a "
+                                      f"Float64), got a {v.type} {v.causality}")
                 out.append(v.valueReference)
             return out
 
@@ -254,14 +254,22 @@ class _Slave:
         self.folder = extract(str(path))
         self.slave, self.started = None, False
         try:
-            self.slave = FMU2Slave(guid=md.guid, unzipDirectory=self.folder,
-                                   modelIdentifier=md.coSimulation.modelIdentifier,
-                                   instanceName=label)
+            if self.fmi3:
+                from fmpy.fmi3 import FMU3Slave as Slave
+            else:
+                from fmpy.fmi2 import FMU2Slave as Slave
+            self.slave = Slave(guid=md.guid, unzipDirectory=self.folder,
+                               modelIdentifier=md.coSimulation.modelIdentifier,
+                               instanceName=label)
             self.slave.instantiate()
-            self.slave.setupExperiment(startTime=t0)
+            if self.fmi3:  # FMI 3: the start time comes with the initialisation
+                self.slave.enterInitializationMode(startTime=t0)
+            else:
+                self.slave.setupExperiment(startTime=t0)
             if par_refs:
-                self.slave.setReal(par_refs, [float(x) for x in spec.parameters.values()])
-            self.slave.enterInitializationMode()
+                self._set(par_refs, [float(x) for x in spec.parameters.values()])
+            if not self.fmi3:
+                self.slave.enterInitializationMode()
             self._set_inputs(sim)
             self.slave.exitInitializationMode()
             self.started = True
@@ -272,19 +280,28 @@ class _Slave:
             self.close()
             raise ConfigError(f"{self.where}: could not be started ({exc})") from None
 
+    def _set(self, refs, values) -> None:
+        (self.slave.setFloat64 if self.fmi3 else self.slave.setReal)(refs, values)
+
     def _set_inputs(self, sim) -> None:
         if self.in_refs:
-            self.slave.setReal(self.in_refs, [signal(sim, name) for _, name in self.inputs])
+            self._set(self.in_refs, [signal(sim, name) for _, name in self.inputs])
 
     def step(self, sim, t: float, h: float) -> dict[str, float]:
         """Its step [t, t + h] on the machine's state at t: {Simulator input: value}."""
         self._set_inputs(sim)
         try:
-            self.slave.doStep(currentCommunicationPoint=t, communicationStepSize=h)
+            done = self.slave.doStep(currentCommunicationPoint=t, communicationStepSize=h)
         except Exception as exc:  # noqa: BLE001 - fmpy raises on any status but OK
             raise _StepFailed(f"{self.where}: its step at t = {t:.6g} s failed ({exc})") \
                 from None
-        values = self.slave.getReal(self.out_refs) if self.out_refs else []
+        if self.fmi3:  # (event handling needed, terminate, early return, last time)
+            _, terminate, early, reached = done
+            if terminate or early:
+                raise _StepFailed(f"{self.where}: its step at t = {t:.6g} s ended at "
+                                  f"{reached:.6g} s ({'it asked to terminate' if terminate else 'early return'})")
+        get = self.slave.getFloat64 if self.fmi3 else self.slave.getReal
+        values = get(self.out_refs) if self.out_refs else []
         return {target: float(x) for (_, target), x in zip(self.outputs, values)}
 
     def close(self) -> None:

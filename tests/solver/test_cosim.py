@@ -273,3 +273,65 @@ def test_a_sampled_controller_s_rhythm_is_no_coupling_error():
     r = cosimulate(_fine_sim(), [c], 0.4, 8e-3)
     assert r.verdict == "ok", r.report
     assert r.step_stats["coupling_ratio"] < 0.05, r.step_stats
+
+
+CONTROLLER3 = '''
+from pythonfmu3 import Fmi3Causality, Fmi3Slave, Fmi3Variability, Float64
+
+
+class PIValve3(Fmi3Slave):
+    """The sampled PI controller of the FMI 2 test FMU, as an FMI 3 co-simulation FMU."""
+
+    author = "tests"
+    description = "sampled PI controller (FMI 3)"
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.kp = 20.0
+        self.ki = 5.0
+        self.r = 0.0
+        self.y = 0.0
+        self.u = 0.0
+        self.integral = 0.0
+        self.time = 0.0
+        self.register_variable(Float64("time", causality=Fmi3Causality.independent,
+                                       variability=Fmi3Variability.continuous))
+        for name in ("kp", "ki", "r"):
+            self.register_variable(Float64(name, causality=Fmi3Causality.parameter,
+                                           variability=Fmi3Variability.tunable))
+        self.register_variable(Float64("y", causality=Fmi3Causality.input))
+        self.register_variable(Float64("u", causality=Fmi3Causality.output))
+
+    def do_step(self, current_time, step_size):
+        e = self.r - self.y
+        self.integral += e * step_size
+        self.u = max(-1.0, min(1.0, self.kp * e + self.ki * self.integral))
+        return True
+'''
+
+
+@pytest.fixture(scope="module")
+def controller_fmu3(tmp_path_factory):
+    pytest.importorskip("pythonfmu3")
+    folder = tmp_path_factory.mktemp("fmu3")
+    script = folder / "pi_valve3.py"
+    script.write_text(CONTROLLER3)
+    from pythonfmu3 import FmuBuilder
+
+    return Path(FmuBuilder.build_FMU(script, dest=folder))
+
+
+def test_an_fmi3_fmu_runs_as_its_fmi2_twin(controller_fmu, controller_fmu3):
+    """The same PI law exported as FMI 2 (pythonfmu) and FMI 3 (pythonfmu3): the same
+    co-simulation to round-off (FMI 3's Float64 variables and start in initialisation)."""
+    from fmpy import read_model_description
+
+    assert read_model_description(str(controller_fmu3)).fmiVersion.startswith("3.")
+    spec = {"inputs": {"y": "q:slide.d"}, "outputs": {"u": "lift"},
+            "parameters": {"kp": 30.0, "ki": 10.0, "r": S0 + 0.04}}
+    runs = [cosimulate(_sim(), [FMU(path, **spec)], 0.3, 5e-3, coupling_error=False)
+            for path in (controller_fmu, controller_fmu3)]
+    two, three = runs
+    assert three.verdict == "ok", three.report
+    assert np.abs(two.q - three.q).max() < 1e-12 and np.abs(two.t - three.t).max() == 0.0
+    assert three.q[-1, 0] - S0 > 0.01  # it moved the mass
