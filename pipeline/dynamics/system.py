@@ -167,6 +167,11 @@ class System:
         """Names ``<element>.<state>`` of the elements' states z, in order."""
         return tuple(f"{f.name}.{x}" for f, _ in self.state_slices for x in f.STATES)
 
+    @property
+    def state_units(self) -> tuple[str, ...]:
+        """The units of the elements' states z, in the order of ``state_names``."""
+        return tuple(u for f, _ in self.state_slices for u in f.STATE_UNITS)
+
     def initial_states(self, q=None, t: float = 0.0) -> np.ndarray:
         """(nz,) every element's states at the start of a run at rest at q (n,): those an
         element leaves open (NaN: a hydraulic cylinder's ``hold`` pressure) are the ones

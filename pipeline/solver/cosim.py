@@ -401,7 +401,7 @@ def coupling_estimate(sim, twin, blocks: Sequence, t_end: float, macro_step: flo
     if failed:
         return {**out, "coupling_unavailable": f"the run at half the macro step failed: "
                                                f"{failed}"}
-    r, fine = sim.result(), twin.result()
+    r, fine = sim.history(), twin.history()
     k = np.searchsorted(fine.t, r.t - 1e-9 * macro_step)
     k = np.minimum(k, fine.t.size - 1)
     if not np.allclose(fine.t[k], r.t, rtol=0.0, atol=1e-9 * macro_step):

@@ -454,6 +454,11 @@ class Simulator:
             pass  # the estimate compares what the other run reached
         return other._raw()
 
+    def history(self) -> SimulationResult:
+        """The history at every communication point as recorded, without the trust checks
+        or the error estimate of :meth:`result` (a co-simulation master comparing runs)."""
+        return self._raw()
+
     def _raw(self) -> SimulationResult:
         return self._grid.result(None, self._run.steps, self._stepper.evaluations,
                                  self._seconds, "generalized_alpha",

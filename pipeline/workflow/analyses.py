@@ -121,10 +121,7 @@ def run_static(m: Machine, a, path) -> dict:
     else:
         r = static_equilibrium(m.system, m.q0, t=a.t, hold=hold)
     z = np.zeros((1, m.mechanism.n))
-    states = {} if r.z is None else {
-        name: (unit, np.array([value])) for name, unit, value in
-        zip(m.system.state_names, [u for f, _ in m.system.state_slices for u in f.STATE_UNITS],
-            r.z, strict=True)}
+    states = {} if r.z is None else state_histories(m.system, r.z[None, :])
     return {
         "success": r.success,
         "message": r.message,
@@ -227,7 +224,7 @@ def run_dynamic(m: Machine, a, path) -> dict:
         "forces": forces,
         "energies": dict(r.energies),
         "extra": extra,
-        "states": state_histories(system, r),
+        "states": state_histories(system, r.states),
         "verdict": r.verdict,
         "warnings": tuple(r.warnings),
     }
@@ -268,11 +265,10 @@ def _cosimulate(m: Machine, system, q0, a, limits, path):
                       coupling_error=a.coupling_error)
 
 
-def state_histories(system, r) -> dict:
-    """{"<element>.<state>": (unit, (T,) values)} of a run's force-element states."""
-    units = [u for f, _ in system.state_slices for u in f.STATE_UNITS]
-    return {name: (unit, r.states[:, i])
-            for i, (name, unit) in enumerate(zip(r.state_names, units))}
+def state_histories(system, states: np.ndarray) -> dict:
+    """{"<element>.<state>": (unit, (T,) values)} of the force elements' states (T, nz)."""
+    return {name: (unit, states[:, i])
+            for i, (name, unit) in enumerate(zip(system.state_names, system.state_units))}
 
 
 def _released(m: Machine, loads, path):

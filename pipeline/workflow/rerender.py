@@ -89,9 +89,7 @@ def render_run(folder: str | Path, sets=(), cache_dir=None) -> list[str]:
                 raise ConfigError(f"{folder}: render: {path.name} is missing: the run saved "
                                   f"no results to draw from (outputs.exports.npz: true)")
             system = machines[label].system
-            units = dict(zip(system.state_names,
-                             [u for f, _ in system.state_slices for u in f.STATE_UNITS],
-                             strict=True))
+            units = dict(zip(system.state_names, system.state_units, strict=True))
             results.setdefault(a.name, []).append(read_result(path, a.name, a.type, label,
                                                               units))
     timings: dict[str, float] = {}
