@@ -140,3 +140,16 @@ def test_without_pilot_the_valve_holds_the_load_against_an_open_valve():
 def test_a_bad_counterbalance_valve_is_refused_naming_its_field(cb, match):
     with pytest.raises(ConfigError, match="force element 'lift': " + match):
         _lift(0.0, counterbalance=cb)
+
+
+def test_a_line_below_minus_one_bar_is_reported_as_the_chambers_are():
+    """The counterbalance valve's line is a pressure of the element like its chambers: one
+    that falls below -1 bar gauge (here it starts there, sealed by the closed valves)
+    makes the run suspect, naming it."""
+    system, _ = _lift(0.0, counterbalance={**CB, "initial_pressure": -2e5},
+                      viscous_friction=VISCOUS)
+    r = _run(system, np.linspace(0.0, 0.05, 6), 5e-4, 1e-4)
+    assert r.verdict == "suspect"
+    (w,) = [w for w in r.warnings if "cylinder" in w]
+    assert w.startswith("hydraulic cylinder 'lift': the counterbalance valve's line pressure "
+                        "fell to -2 bar gauge"), w

@@ -510,15 +510,21 @@ class HydraulicCylinder(CompiledElement, LineElement):
         super().validate(system)
         self.measured_index(system.mechanism)
 
+    def chamber_volumes(self, s: float) -> tuple[float, float]:
+        """(V_a, V_b) at stroke s (m), m^3: dead volume plus the swept one."""
+        aa, ab = self.areas
+        va, vb = self.dead_volumes
+        return va + aa * s, vb + ab * (self.stroke - s)
+
     def oil_stiffness(self, s: float, pressures=(0.0, 0.0)) -> float:
         """The oil columns' axial stiffness beta_a A_a^2 / V_a + beta_b A_b^2 / V_b at
         stroke s (m), valve closed, N/m; with air in the oil the moduli are the effective
         ones at the chambers' ``pressures`` (p_a, p_b), Pa gauge."""
         aa, ab = self.areas
-        va, vb = self.dead_volumes
+        va, vb = self.chamber_volumes(s)
         par = self.parameters()
-        return effective_bulk_modulus(par, pressures[0]) * aa ** 2 / (va + aa * s) \
-            + effective_bulk_modulus(par, pressures[1]) * ab ** 2 / (vb + ab * (self.stroke - s))
+        return effective_bulk_modulus(par, pressures[0]) * aa ** 2 / va \
+            + effective_bulk_modulus(par, pressures[1]) * ab ** 2 / vb
 
     def pack(self, mech, markers) -> tuple:
         """(ints, par, table rows or None) of the compiled form."""
@@ -607,17 +613,11 @@ class HydraulicCylinder(CompiledElement, LineElement):
             raise ConfigError(f"{where}: its valve is open at t = {t:g} s (command {u:g}); "
                               f"the oil is trapped behind a closed valve only")
         z_ref = self.own_states(z_ref)
-        aa, ab = self.areas
-        va0, vb0 = self.dead_volumes
-
-        def volumes(s):
-            return va0 + aa * s, vb0 + ab * (self.stroke - s)
-
-        ref = volumes(self.stroke_at(system, q_ref))
+        ref = self.chamber_volumes(self.stroke_at(system, q_ref))
 
         def states(q):
             z = z_ref.copy()
-            for k, v in enumerate(volumes(self.stroke_at(system, q))):
+            for k, v in enumerate(self.chamber_volumes(self.stroke_at(system, q))):
                 z[k] = self.sealed_pressure(float(z_ref[k]), v / ref[k])
             return z
         return states
@@ -626,27 +626,30 @@ class HydraulicCylinder(CompiledElement, LineElement):
         """What the model leaves out and a run ``r`` (SimulationResult) reached: a stroke
         outside [0, stroke] (no end stops yet) or a pressure below -1 bar gauge
         (cavitation, not modelled: the pressure goes on falling)."""
-        from pipeline.dynamics.forces.base import marker_pose
-        from pipeline.kinematics import evaluate_tree
-
         out = []
         if not r.t.size:
             return out
-        if f"{self.name}.p_a" in r.state_names:
-            i = r.state_names.index(f"{self.name}.p_a")
-            p = r.states[:, i:i + 2]
+        # every pressure of the element: the lower chamber's, a pump's supply line's, a
+        # counterbalance valve's line's
+        lines = {"p_s": "the supply line's", "p_c": "the counterbalance valve's line"}
+        for names in (("p_a", "p_b"), ("p_s",), ("p_c",)):
+            keys = [f"{self.name}.{x}" for x in names]
+            if keys[0] not in r.state_names:
+                continue
+            i = r.state_names.index(keys[0])
+            p = r.states[:, i:i + len(keys)]
             k, j = np.unravel_index(int(np.argmin(p)), p.shape)
             if p[k, j] < -1e5:
-                out.append(f"hydraulic cylinder '{self.name}': the {'ab'[j]}-side pressure "
-                           f"fell to {p[k, j] / 1e5:.3g} bar gauge at t = {r.t[k]:.4g} s; "
-                           f"oil cavitates near -1 bar, which the model leaves out (feed "
-                           f"that chamber more flow, or move slower)")
+                what, remedy = ((f"the {'ab'[j]}-side pressure", "that chamber")
+                                if len(names) == 2 else (f"{lines[names[0]]} pressure",
+                                                         "that line"))
+                out.append(f"hydraulic cylinder '{self.name}': {what} fell to "
+                           f"{p[k, j] / 1e5:.3g} bar gauge at t = {r.t[k]:.4g} s; oil "
+                           f"cavitates near -1 bar, which the model leaves out (feed "
+                           f"{remedy} more flow, or move slower)")
         worst = (0.0, 0.0, 0.0)
         for k in np.unique(np.linspace(0, r.t.size - 1, min(r.t.size, 200)).astype(int)):
-            tree = evaluate_tree(system.mechanism, r.q[k], derivatives=False)
-            a, b = (marker_pose(system, *m, tree, r.q[k])[:3, 3]
-                    for m in (self.marker_a, self.marker_b))
-            s = float(np.linalg.norm(b - a)) - self.length_retracted
+            s = self.stroke_at(system, r.q[k])
             beyond = max(-s, s - self.stroke)
             if beyond > worst[0]:
                 worst = (beyond, s, float(r.t[k]))
