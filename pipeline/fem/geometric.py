@@ -250,9 +250,10 @@ def solid_modal_geometric_stiffness(model: FemModel, u: np.ndarray, Phi: np.ndar
     ``int sigma_ij dphi_k/dx_i dpsi_k/dx_j dV`` with sigma the element stress of u at the
     quadrature points (degree-3 rule: exact for straight elements), Phi (n_dof, m)."""
     from pipeline.fem.p2_kernel import ReferenceRule, inverse_and_det
+    from pipeline.fem.stress import cell_lame
 
     cells = np.asarray(model.extras["cells"])
-    lam, mu = model.extras["material"].lame
+    lam_e, mu_e = cell_lame(model)
     rule = ReferenceRule.of_order(3)
     U = np.asarray(u, dtype=float)[model.node_dofs]  # (N, 3)
     P = np.asarray(Phi, dtype=float)[model.node_dofs]  # (N, 3, m)
@@ -266,7 +267,8 @@ def solid_modal_geometric_stiffness(model: FemModel, u: np.ndarray, Phi: np.ndar
         grad = np.einsum("eqna,enb->eqba", G, U[c], optimize=True)  # du_b/dx_a at [b, a]
         eps = 0.5 * (grad + np.swapaxes(grad, -1, -2))
         tr = np.trace(eps, axis1=-2, axis2=-1)
-        sig = 2 * mu * eps + lam * tr[..., None, None] * np.eye(3)
+        lam, mu = lam_e[start:start + batch, None], mu_e[start:start + batch, None]
+        sig = 2 * mu[..., None, None] * eps + (lam * tr)[..., None, None] * np.eye(3)
         w = np.abs(det) * rule.weights  # (e, q)
         S = np.einsum("eq,eqna,eqab,eqpb->enp", w, G, sig, G, optimize=True)  # (e, 10, 10)
         Pe = P[c].reshape(len(c), 10, 3 * m)  # (e, 10, 3 m)

@@ -1,13 +1,19 @@
-"""Isotropic linear-elastic material of a solid link.
+"""Isotropic linear-elastic materials of a solid link.
 
 A :class:`Material` is a plain description (SI units); :func:`check_material`
-validates one at the boundary and names the link in its message.
+validates one at the boundary and names the link in its message. A link of several
+materials (a steel boom with a cast-iron eye, a welded part of two grades) assigns
+them to its cells by element set (:func:`assign_materials`, :class:`CellMaterials`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
+import numpy as np
+
+from pipeline.core.errors import ConfigError
 from pipeline.core.validate import check_in_open_interval, check_positive
 
 
@@ -101,3 +107,82 @@ def check_material(material: Material, where: str) -> Material:
     nu = check_in_open_interval(material.nu, -1, 0.5, f"{where}: material.nu")
     rho = check_positive(material.rho, f"{where}: material.rho")
     return Material(E=E, nu=nu, rho=rho)
+
+
+@dataclass(frozen=True)
+class CellMaterials:
+    """The materials of a solid's cells: ``materials[index[e]]`` is cell e's; ``names[k]``
+    says where ``materials[k]`` came from (``material`` for the link's own, else the
+    element set's name).
+
+    index : (n_cells,) int; materials : tuple of :class:`Material`; names : tuple of str.
+    """
+
+    index: np.ndarray
+    materials: tuple
+    names: tuple
+
+    @property
+    def lame(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each cell's Lame parameters (lambda (n_cells,), mu (n_cells,)), Pa."""
+        table = np.array([m.lame for m in self.materials]).reshape(-1, 2)
+        return table[self.index, 0], table[self.index, 1]
+
+    @property
+    def density(self) -> np.ndarray:
+        """Each cell's density (n_cells,), kg/m^3."""
+        return np.array([m.rho for m in self.materials])[self.index]
+
+    @property
+    def uniform(self) -> bool:
+        """One material for every cell."""
+        return len(self.materials) == 1
+
+
+def assign_materials(material: Material, materials: Mapping[str, Material],
+                     cell_groups: Mapping[str, np.ndarray], n_cells: int,
+                     where: str) -> CellMaterials:
+    """The material of each of ``n_cells`` cells: ``materials`` by element-set name (the
+    mesh's ``cell_groups``: cell indices per set), ``material`` for the cells in none.
+
+    Raises
+    ------
+    ConfigError
+        A bad material; a set the mesh does not have; two sets that give one cell
+        different materials.
+
+    Examples
+    --------
+    >>> steel, alu = Material(210e9, 0.3, 7850.0), Material(70e9, 0.33, 2700.0)
+    >>> cm = assign_materials(steel, {"ARM": alu}, {"ARM": np.array([1, 2])}, 4, "link 'a'")
+    >>> cm.index.tolist(), cm.names, cm.density.tolist()
+    ([0, 1, 1, 0], ('material', 'ARM'), [7850.0, 2700.0, 2700.0, 7850.0])
+    """
+    own = [check_material(material, where)]
+    index = np.zeros(n_cells, dtype=np.int64)
+    given_by: dict[int, str] = {}
+    for k, (name, mat) in enumerate(materials.items(), start=1):
+        own.append(check_material(mat, f"{where}: materials.{name}"))
+        if name not in cell_groups:
+            known = sorted(cell_groups)
+            raise ConfigError(
+                f"{where}: materials.{name}: the mesh has no element set {name!r} "
+                + (f"(its element sets: {known})" if known else
+                   "(it has no element sets: materials by element set need a mesh file that "
+                   "names them: Abaqus ELSET, gmsh physical volumes, Nastran property ids "
+                   "PID<n>)"))
+        cells = np.asarray(cell_groups[name], dtype=np.int64)
+        if cells.size and (cells.min() < 0 or cells.max() >= n_cells):
+            raise ConfigError(f"{where}: materials.{name}: element set {name!r} names cells "
+                              f"outside the solid's {n_cells}")
+        taken = cells[index[cells] != 0]
+        clash = taken[[own[index[c]] != own[k] for c in taken]]
+        if clash.size:
+            first = int(clash[0])
+            raise ConfigError(
+                f"{where}: materials.{name}: element sets {given_by[int(index[first])]!r} and "
+                f"{name!r} share {clash.size} cell(s) (first cell {first}) and give them "
+                "different materials: give each cell one material")
+        index[cells] = k
+        given_by[k] = name
+    return CellMaterials(index, tuple(own), ("material", *materials))

@@ -190,9 +190,10 @@ class NodePattern:
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(n, n))
 
 
-def assemble_p2(X: np.ndarray, conn: np.ndarray, n_nodes: int, lam: float, mu: float,
-                straight: np.ndarray | bool, stiffness_order: int = 4,
-                mass_order: int = 7) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+def assemble_p2(X: np.ndarray, conn: np.ndarray, n_nodes: int, lam: float | np.ndarray,
+                mu: float | np.ndarray, straight: np.ndarray | bool, stiffness_order: int = 4,
+                mass_order: int = 7,
+                rho: float | np.ndarray = 1.0) -> tuple[sp.csr_matrix, sp.csr_matrix]:
     """Elasticity stiffness and scalar mass of a P2 tetrahedral mesh.
 
     Parameters
@@ -203,8 +204,9 @@ def assemble_p2(X: np.ndarray, conn: np.ndarray, n_nodes: int, lam: float, mu: f
         Global node ids per element.
     n_nodes : int
         Number of nodes.
-    lam, mu : float
-        Lame parameters, Pa.
+    lam, mu : float or (e,) array
+        Lame parameters, Pa: one material, or each element's (a link of several
+        materials).
     straight : bool or (e,) bool array
         Straight-sided (affine) elements: constant Jacobian from the vertices,
         integrals exact. The others are isoparametric (curved) P2 elements.
@@ -212,17 +214,25 @@ def assemble_p2(X: np.ndarray, conn: np.ndarray, n_nodes: int, lam: float, mu: f
         Quadrature orders of curved elements: 4 is skfem's default for P2;
         the curved mass integrand N_i N_j det J has degree 7, so order 7
         integrates it exactly.
+    rho : float or (e,) array
+        Density, kg/m^3, one or each element's; 1 gives the volume form.
 
     Returns
     -------
     K : (3 n_nodes, 3 n_nodes) CSR
         Stiffness, N/m, with DOF 3 n + a = component a of node n.
     Ms : (n_nodes, n_nodes) CSR
-        Scalar mass int N_i N_j dV, m^3 (multiply by rho for kg).
+        Scalar mass int rho N_i N_j dV, kg (m^3 with rho = 1).
     """
     pattern = NodePattern.of(conn, n_nodes)
-    straight = np.broadcast_to(np.asarray(straight, bool), (conn.shape[0],))
+    e = conn.shape[0]
+    straight = np.broadcast_to(np.asarray(straight, bool), (e,))
+    # one material: the gradient integrals are scattered once and scaled after; several:
+    # the lam- and the mu-weighted integrals are scattered apart
+    uniform = np.ndim(lam) == 0 and np.ndim(mu) == 0 and np.ndim(rho) == 0
+    lam_e, mu_e, rho_e = (np.broadcast_to(np.asarray(x, float), (e,)) for x in (lam, mu, rho))
     D = np.zeros((9, pattern.nnz))
+    Dm = D if uniform else np.zeros((9, pattern.nnz))
     ms = np.zeros(pattern.nnz)
     for affine in (True, False):
         elements = np.flatnonzero(straight == affine)
@@ -234,15 +244,27 @@ def assemble_p2(X: np.ndarray, conn: np.ndarray, n_nodes: int, lam: float, mu: f
         for start in range(0, elements.size, batch):
             part = elements[start:start + batch]
             De = gradient_integrals(X[part], k_rule, affine)
+            me = mass_integrals(X[part], m_rule, affine)
+            if uniform:
+                for ab in range(9):
+                    D[ab] += pattern.scatter(De[ab], part)
+                ms += pattern.scatter(me, part)
+                continue
             for ab in range(9):
-                D[ab] += pattern.scatter(De[ab], part)
-            ms += pattern.scatter(mass_integrals(X[part], m_rule, affine), part)
-    return _stiffness_from_gradients(D, lam, mu, pattern), _symmetric_csr(ms, pattern)
+                D[ab] += pattern.scatter(lam_e[part, None] * De[ab], part)
+                Dm[ab] += pattern.scatter(mu_e[part, None] * De[ab], part)
+            ms += pattern.scatter(rho_e[part, None] * me, part)
+    if uniform:
+        K = _stiffness_from_gradients(D, float(lam), float(mu), pattern)
+        return K, _symmetric_csr(float(rho) * ms, pattern)
+    return _stiffness_from_gradients(D, 1.0, 1.0, pattern, Dm), _symmetric_csr(ms, pattern)
 
 
 def _stiffness_from_gradients(D: np.ndarray, lam: float, mu: float,
-                              pattern: NodePattern) -> sp.csr_matrix:
-    """K blocks lam D + mu D^T + mu tr(D) 1 per node pair, as CSR (3n, 3n).
+                              pattern: NodePattern, Dm: np.ndarray | None = None
+                              ) -> sp.csr_matrix:
+    """K blocks lam D + mu Dm^T + mu tr(Dm) 1 per node pair, as CSR (3n, 3n) (Dm = D for
+    one material; else D and Dm hold the lam- and mu-weighted integrals, lam = mu = 1).
 
     ``D`` is component-major (9, nnz), so every step is a contiguous 1-D pass.
     """
@@ -250,11 +272,13 @@ def _stiffness_from_gradients(D: np.ndarray, lam: float, mu: float,
     # Exact symmetry: the mirrored entry (c, r) holds D^T of (r, c) up to the
     # rounding order of the sums.
     sym = [0.5 * (D[3 * a + b] + D[3 * b + a][T]) for a in range(3) for b in range(3)]
-    trace = sym[0] + sym[4] + sym[8]
+    symm = sym if Dm is None else [0.5 * (Dm[3 * a + b] + Dm[3 * b + a][T])
+                                   for a in range(3) for b in range(3)]
+    trace = symm[0] + symm[4] + symm[8]
     blocks = np.empty((pattern.nnz, 3, 3))
     for a in range(3):
         for b in range(3):
-            blocks[:, a, b] = lam * sym[3 * a + b] + mu * sym[3 * b + a]
+            blocks[:, a, b] = lam * sym[3 * a + b] + mu * symm[3 * b + a]
         blocks[:, a, a] += mu * trace
     n = 3 * pattern.n_nodes
     return sp.bsr_matrix((blocks, pattern.indices, pattern.indptr), shape=(n, n)).tocsr()

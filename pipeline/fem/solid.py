@@ -18,6 +18,7 @@ mesh uses the same numbering as the model.
 from __future__ import annotations
 
 import logging
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,7 +26,7 @@ import scipy.sparse as sp
 
 from pipeline.core.errors import MeshError
 from pipeline.core.progress import stage
-from pipeline.fem.material import Material, check_material
+from pipeline.fem.material import Material, assign_materials, check_material
 from pipeline.fem.model import FemModel
 from pipeline.fem.moments import MassMoments
 from pipeline.fem.p2_kernel import EDGES, assemble_p2, vector_mass
@@ -193,7 +194,8 @@ def _check_volumes(topo: P2Topology, where: str) -> None:
                         f"(zero volume), first is cell {int(bad[0])}")
 
 
-def assemble_solid(mesh: MeshData, material: Material, name: str) -> FemModel:
+def assemble_solid(mesh: MeshData, material: Material, name: str,
+                   materials: Mapping[str, Material] | None = None) -> FemModel:
     """Free-free P2 elasticity model of a solid link.
 
     Parameters
@@ -201,9 +203,11 @@ def assemble_solid(mesh: MeshData, material: Material, name: str) -> FemModel:
     mesh : MeshData
         ``"tetra10"`` (curved, isoparametric) or ``"tetra"`` (straight) mesh, m.
     material : Material
-        E (Pa), nu, rho (kg/m^3).
+        E (Pa), nu, rho (kg/m^3): the link's, for every cell ``materials`` does not give.
     name : str
         Link name, used in messages and as the model's name.
+    materials : mapping of element-set name to Material, optional
+        Materials of the cells of the mesh's element sets (``mesh.cell_groups``).
 
     Returns
     -------
@@ -212,12 +216,13 @@ def assemble_solid(mesh: MeshData, material: Material, name: str) -> FemModel:
         (n_dof, n_dof); ``node_dofs`` (n_nodes, 3); ``extras``:
         ``"scalar_mass"`` (n_nodes, n_nodes) CSR int rho N_i N_j dV (kg),
         ``"boundary_nodes"`` sorted surface node ids, ``"cells"`` (n_cells, 10)
-        node ids in meshio/VTK ``tetra10`` order, ``"material"``.
+        node ids in meshio/VTK ``tetra10`` order, ``"material"`` (the link's),
+        ``"cell_materials"`` (a :class:`CellMaterials`: each cell's).
 
     Raises
     ------
     ConfigError
-        Bad material.
+        Bad material; an element set the mesh does not have; a cell given two.
     MeshError
         Unusable mesh (see :func:`p2_topology`).
 
@@ -233,11 +238,15 @@ def assemble_solid(mesh: MeshData, material: Material, name: str) -> FemModel:
     where = f"link {name!r}"
     material = check_material(material, where)
     topo = p2_topology(mesh, where)
-    lam, mu = material.lame
+    cells = assign_materials(material, materials or {}, mesh.cell_groups, topo.conn.shape[0],
+                             where)
+    if cells.uniform:
+        (lam, mu), rho = material.lame, material.rho
+    else:
+        (lam, mu), rho = cells.lame, cells.density
     with stage(f"assembling P2 solid of {where}"):
         K, Ms = assemble_p2(topo.coords[topo.conn], topo.conn, topo.coords.shape[0],
-                            lam, mu, topo.straight)
-        Ms = material.rho * Ms
+                            lam, mu, topo.straight, rho=rho)
         M = vector_mass(Ms)
         sk_dofs = _skfem_node_dofs(topo)
         K, M = _to_skfem_numbering(K, sk_dofs), _to_skfem_numbering(M, sk_dofs)
@@ -250,6 +259,7 @@ def assemble_solid(mesh: MeshData, material: Material, name: str) -> FemModel:
         "boundary_nodes": _boundary_nodes(topo),
         "cells": topo.node_of_skfem[topo.conn],
         "material": material,
+        "cell_materials": cells,
     }
     return FemModel(name=name, kind="solid", nodes=nodes, node_dofs=sk_dofs[skfem_of_node],
                     stiffness=K, mass=M, extras=extras)

@@ -67,6 +67,17 @@ def stress_modes(model: FemModel, U: np.ndarray) -> np.ndarray:
     return solid_nodal_stress(model, U)
 
 
+def cell_lame(model: FemModel) -> tuple[np.ndarray, np.ndarray]:
+    """Each cell's Lame parameters (lambda, mu) (n_cells,), Pa, of a P2 solid model (its
+    ``extras["cell_materials"]``; one material for all where it has none)."""
+    n = len(model.extras["cells"])
+    cells = model.extras.get("cell_materials")
+    if cells is None:
+        lam, mu = model.extras["material"].lame
+        return np.full(n, lam), np.full(n, mu)
+    return cells.lame
+
+
 def _reference_nodes() -> np.ndarray:
     V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
     return np.vstack([V, [(V[i] + V[j]) / 2 for i, j in EDGES]])
@@ -82,13 +93,14 @@ def solid_nodal_stress(model: FemModel, U: np.ndarray, chunk: int = 1024) -> np.
     U = np.asarray(U, dtype=float).reshape(model.n_dof, -1)
     m = U.shape[1]
     cells = np.asarray(model.extras["cells"])  # (e, 10) model node ids, P2 local order
-    lam, mu = model.extras["material"].lame
+    lam_e, mu_e = cell_lame(model)
     _, dN = p2_shape(_reference_nodes().T)  # (10 points, 10 functions, 3)
     count = np.bincount(cells.ravel(), minlength=model.n_nodes).astype(float)
     total = np.zeros((model.n_nodes, 6 * m))
     for s in range(0, cells.shape[0], chunk):
         c = cells[s:s + chunk]
         e = c.shape[0]
+        lam, mu = lam_e[s:s + chunk, None, None], mu_e[s:s + chunk, None, None]
         J = np.einsum("eni,pnk->epik", model.nodes[c], dN, optimize=True)  # dx_i/dxi_k
         invJ, _ = inverse_and_det(J)
         G = np.einsum("pnk,epka->epan", dN, invJ, optimize=True)  # dN_n/dx_a at point p
@@ -101,7 +113,7 @@ def solid_nodal_stress(model: FemModel, U: np.ndarray, chunk: int = 1024) -> np.
         sigma = np.empty((e, 10, 6, m))
         for k, (i, j) in enumerate(zip(_VI, _VJ)):
             if i == j:  # sigma_ii = 2 mu eps_ii + lam tr(eps)
-                np.multiply(g[:, :, 4 * i], 2 * mu, out=sigma[:, :, k])
+                np.multiply(g[:, :, 4 * i], 2.0 * mu, out=sigma[:, :, k])
                 sigma[:, :, k] += tr
             else:  # sigma_ij = mu (du_i/dx_j + du_j/dx_i)
                 np.add(g[:, :, 3 * i + j], g[:, :, 3 * j + i], out=sigma[:, :, k])

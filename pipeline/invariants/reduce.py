@@ -56,8 +56,9 @@ class MarkerRequest:
 class LinkRequest:
     """Everything needed to reduce one link (plain values, SI units).
 
-    ``sections`` (beams) holds one BeamSection per polyline member; ``mesh_budget`` what
-    a solid's meshing may take (default: :class:`MeshBudget`'s).
+    ``sections`` (beams) holds one BeamSection per polyline member; ``materials`` the
+    materials of a mesh's element sets (cells in none have ``material``); ``mesh_budget``
+    what a solid's meshing may take (default: :class:`MeshBudget`'s).
     """
 
     name: str
@@ -66,6 +67,7 @@ class LinkRequest:
     interfaces: tuple[InterfaceSpec, ...]
     reference: str
     sections: tuple = ()
+    materials: tuple = ()  # (element-set name, Material) of a link of several materials
     markers: tuple[MarkerRequest, ...] = ()
     point_masses: tuple = ()
     n_modes: int | None = None
@@ -153,6 +155,12 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
             "reference_conditions": {"reference": request.reference, "chord": request.chord,
                                      "craig_bampton": basis.settings.get("cb_interfaces", [])},
             "interface_compliance": compliance, **stiffening, **(meta or {})}
+    cells = model.extras.get("cell_materials")
+    if cells is not None and not cells.uniform:
+        count = np.bincount(cells.index, minlength=len(cells.materials))
+        info["materials"] = {name: {"E": m.E, "nu": m.nu, "rho": m.rho, "cells": int(k)}
+                             for name, m, k in zip(cells.names, cells.materials, count,
+                                                   strict=True)}
     S = None
     if "material" in model.extras or model.kind == "beam":
         with stage(f"stress modes of link '{name}'", times):
@@ -206,14 +214,16 @@ def _assemble(request: LinkRequest, mesh: MeshData) -> FemModel:
                               "leave it off (or import the mesh alone and assemble it here)")
         model = read_matrices(g.matrices, mesh, g.scale, request.name)
     elif mesh.kind == "solid":
-        if request.material.nu > NEARLY_INCOMPRESSIBLE:
-            logger.warning(
-                "%s: material.nu = %g is nearly incompressible: displacement-based P2 "
-                "tetrahedra lock volumetrically as nu -> 0.5 (deflections and frequencies come "
-                "out stiff), and the bulk stiffness swamps the round-off scale of the mode "
-                "checks; there is no mixed (u-p) formulation here: use nu <= %g",
-                where, request.material.nu, NEARLY_INCOMPRESSIBLE)
-        model = assemble_solid(mesh, request.material, request.name)
+        for key, mat in (("material", request.material),
+                         *((f"materials.{n}", m) for n, m in request.materials)):
+            if mat.nu > NEARLY_INCOMPRESSIBLE:
+                logger.warning(
+                    "%s: %s.nu = %g is nearly incompressible: displacement-based P2 "
+                    "tetrahedra lock volumetrically as nu -> 0.5 (deflections and frequencies "
+                    "come out stiff), and the bulk stiffness swamps the round-off scale of the "
+                    "mode checks; there is no mixed (u-p) formulation here: use nu <= %g",
+                    where, key, mat.nu, NEARLY_INCOMPRESSIBLE)
+        model = assemble_solid(mesh, request.material, request.name, dict(request.materials))
     else:
         from pipeline.fem.beam import assemble_beam, sections_by_member
 
@@ -298,7 +308,7 @@ def _marker_interface(model: FemModel, marker: MarkerRequest) -> Interface:
 
 def _mesh_quality(mesh: MeshData, moments: MassMoments, request: LinkRequest) -> dict:
     """Geometric discretisation error: FE mass properties vs the CAD solid's."""
-    if "volume" not in mesh.cad or request.point_masses:
+    if "volume" not in mesh.cad or request.point_masses or request.materials:
         return {}
     rho = request.material.rho
     C = moments.C

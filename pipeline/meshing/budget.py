@@ -181,7 +181,7 @@ def save_mesh(mesh: MeshData, path: Path) -> dict[str, Any]:
     with the array keys."""
     arrays: dict[str, np.ndarray] = {"points": mesh.points}
     index: dict[str, dict[str, str]] = {}
-    for part in ("cells", "boundary", "groups", "cad"):
+    for part in ("cells", "boundary", "groups", "cell_groups", "cad"):
         index[part] = {}
         for i, (key, value) in enumerate(getattr(mesh, part).items()):
             arrays[f"{part}_{i}"] = np.asarray(value)

@@ -5,7 +5,9 @@ An engineer with a validated FE model of a boom brings its mesh as it is: its li
 quadratic tetrahedra (C3D4 / C3D10, CTETRA, tetra / tetra10) become the link's solid, its
 node sets and element sets (Abaqus NSET / ELSET, gmsh physical groups, meshio point and
 cell sets) become named node groups for the interface and marker selectors
-(``{type: group, name: ...}``). Coordinates are scaled from the file's ``units`` to metres.
+(``{type: group, name: ...}``), and its element sets (cell sets, gmsh physical volumes,
+Nastran property ids as ``PID<n>``) named cell groups for a link of several materials.
+Coordinates are scaled from the file's ``units`` to metres.
 
 What the import cannot check by itself it says: a mesh in millimetres read as metres is a
 link a thousand times too large, which :func:`check_units` catches against the positions
@@ -199,7 +201,39 @@ def read_mesh(geometry: MeshFileGeometry, name: str) -> MeshData:
     face = "triangle6" if cell == "tetra10" else "triangle"
     return MeshData(points=points, cells={cell: conn}, kind="solid",
                     order=2 if cell == "tetra10" else 1, boundary={face: boundary_faces(conn)},
-                    groups=groups, source=f"import:{geometry.format}:{path}")
+                    groups=groups, cell_groups=_cell_groups(m, blocks, cell),
+                    source=f"import:{geometry.format}:{path}")
+
+
+def _cell_groups(m, blocks, cell: str) -> dict[str, np.ndarray]:
+    """Element sets of the solid, by name: the rows of its tetrahedra (the blocks of type
+    ``cell`` in file order) that each cell set, gmsh physical volume or Nastran property id
+    (``PID<n>``) holds; sets without a tetrahedron are left out."""
+    out: dict[str, list] = {}
+    offsets, start = [], 0
+    for t, data in blocks:
+        offsets.append(start if t == cell else -1)
+        start += len(data) if t == cell else 0
+
+    def add(name, b, rows):
+        if offsets[b] >= 0 and len(rows):
+            out.setdefault(str(name), []).append(offsets[b] + np.asarray(rows, np.int64))
+
+    for name, per_block in (m.cell_sets or {}).items():
+        for b, idx in enumerate(per_block):
+            if idx is not None:
+                add(name, b, np.asarray(idx, dtype=np.int64).ravel())
+    data = m.cell_data or {}
+    if data.get("gmsh:physical") is not None and m.field_data:
+        tags = {int(v[0]): n for n, v in m.field_data.items() if int(v[-1]) == 3}
+        for b, phys in enumerate(data["gmsh:physical"]):
+            for tag in np.unique(phys):
+                if int(tag) in tags:
+                    add(tags[int(tag)], b, np.flatnonzero(phys == tag))
+    for b, pid in enumerate(data.get("nastran:ref") or []):
+        for value in np.unique(pid):
+            add(f"PID{int(value)}", b, np.flatnonzero(pid == value))
+    return {n: np.unique(np.concatenate(rows)) for n, rows in out.items()}
 
 
 def _groups(m, blocks, new: np.ndarray, where: str) -> dict[str, np.ndarray]:

@@ -11,6 +11,9 @@ Contract (shared by ``pipeline.meshing`` which produces it and
 * ``boundary`` is the surface triangulation of a solid (``"triangle6"`` or
   ``"triangle"``), used for interface selection and rendering; empty for beams.
 * ``groups`` maps a physical-group name to the node indices it contains.
+* ``cell_groups`` maps an element-set name to the indices of the solid's cells it holds
+  (rows of its one volume block: Abaqus ELSET, gmsh physical volumes, Nastran property
+  ids); links with several materials assign them by these names.
 * ``cad`` holds the exact mass properties of the CAD solid per unit density
   (``volume`` m^3, ``centroid`` (3,) m, ``second_moment`` (3, 3) m^5 =
   integral of x x^T dV) when the geometry came from OCC; empty otherwise.
@@ -35,6 +38,7 @@ class MeshData:
     order: int = 1
     boundary: Mapping[str, np.ndarray] = field(default_factory=dict)
     groups: Mapping[str, np.ndarray] = field(default_factory=dict)
+    cell_groups: Mapping[str, np.ndarray] = field(default_factory=dict)
     cad: Mapping[str, np.ndarray] = field(default_factory=dict)
     source: str = ""
 
@@ -45,7 +49,7 @@ class MeshData:
         if self.kind not in ("solid", "beam"):
             raise ValueError(f"MeshData.kind: expected 'solid' or 'beam', got {self.kind!r}")
         object.__setattr__(self, "points", pts)
-        for name in ("cells", "boundary", "groups", "cad"):
+        for name in ("cells", "boundary", "groups", "cell_groups", "cad"):
             frozen = {k: np.asarray(v) for k, v in getattr(self, name).items()}
             object.__setattr__(self, name, MappingProxyType(frozen))
 

@@ -104,6 +104,7 @@ def link_request(spec: LinkSpec, base_dir: Path) -> tuple[LinkRequest, tuple[Pat
         for s in _sections_per_member(spec))
     request = LinkRequest(
         name=spec.name, geometry=geometry, material=mat, sections=sections,
+        materials=_materials(spec, geometry),
         interfaces=tuple(_interface(i, spec.name) for i in spec.interfaces),
         reference=spec.reference,
         markers=tuple(MarkerRequest(m.name, np.asarray(m.position, float),
@@ -118,6 +119,21 @@ def link_request(spec: LinkSpec, base_dir: Path) -> tuple[LinkRequest, tuple[Pat
         mesh_budget=budget,
     )
     return request, files
+
+
+def _materials(spec: LinkSpec, geometry) -> tuple:
+    """(element set, Material) of a link of several materials: the spec's, or those its
+    mesh file's solid sections give (``materials: file``)."""
+    if spec.materials != "file":
+        return tuple((name, Material(m.E, m.nu, m.rho)) for name, m in spec.materials.items())
+    from pipeline.meshing.file_materials import read_file_materials
+    from pipeline.meshing.imported import MASS_UNITS
+
+    if not geometry.path.is_file():
+        return ()  # the mesh reader says so, at the geometry's line
+    found = read_file_materials(geometry.path, geometry.format, geometry.scale,
+                                MASS_UNITS[spec.geometry.mass_unit or "kg"])
+    return tuple((name, Material(*values)) for name, values in sorted(found.items()))
 
 
 def _sections_per_member(spec: LinkSpec) -> list:
@@ -150,6 +166,8 @@ def input_hash(spec: LinkSpec, files: tuple[Path, ...]) -> str:
     """Hash of everything that determines the artifact: spec (less the meshing budget),
     files, code versions."""
     data = spec.model_dump(mode="json")
+    if not data["materials"]:  # the hashes of links of one material stay what they were
+        del data["materials"]
     for key in BUDGET_FIELDS:
         data["geometry"].pop(key, None)
     return content_hash({"spec": data, "format": FORMAT_VERSION,

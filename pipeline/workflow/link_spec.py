@@ -102,6 +102,9 @@ class MeshGeometrySpec(Strict):
     expected_mass: float | None = Field(
         None, gt=0, description="the link's mass as the FE tool reports it, kg: checked "
                                 "within 5 % (catches a wrong unit or density)")
+    mass_unit: Literal["kg", "t", "g"] | None = Field(
+        None, description="the mass unit of the file's consistent units, for materials read "
+                          "from it (t with mm: N, MPa, t/mm^3; default kg with m)")
     matrices: MatricesSpec | None = Field(
         None, description="the FE tool's own free-free K and M of this mesh (path then is "
                           "its .inp input), used instead of assembling them here")
@@ -212,6 +215,13 @@ class LinkSpec(Strict):
     geometry: Annotated[SolidGeometrySpec | BeamGeometrySpec | MeshGeometrySpec,
                         Field(discriminator="type")]
     material: MaterialSpec
+    materials: dict[str, MaterialSpec] | Literal["file"] = Field(
+        default_factory=dict,
+        description="materials by element set of an imported mesh (Abaqus ELSET, gmsh "
+                    "physical volume, Nastran property id as PID<n>), or 'file': the "
+                    "materials the file's solid sections give (*SOLID SECTION, PSOLID), in "
+                    "geometry.units and geometry.mass_unit; cells in none of them have "
+                    "material")
     sections: list[SectionSpec] = Field(default_factory=list, validate_default=True,
                                        description="beam sections, one per member")
     interfaces: list[InterfaceSpec] = Field(min_length=1)
@@ -236,6 +246,28 @@ class LinkSpec(Strict):
         if value.chord is not None and value.chord not in others:
             raise ValueError(f"chord: expected one of the interfaces other than the reference "
                              f"{others}, got {value.chord!r}")
+        return value
+
+    @field_validator("materials")
+    @classmethod
+    def _materials_need_element_sets(cls, value: dict, info: ValidationInfo) -> dict:
+        geometry = info.data.get("geometry")
+        if value and geometry is not None and geometry.type != "mesh":
+            raise ValueError("materials by element set need a mesh file that names its sets "
+                             "(geometry type mesh); this link's geometry is a "
+                             f"{geometry.type}")
+        if value and geometry is not None and geometry.matrices is not None:
+            raise ValueError("a link imported as matrices has its materials in them; "
+                             "leave materials out")
+        if value == "file" and geometry is not None:
+            if Path(geometry.path).suffix.lower() not in (".inp", ".bdf", ".nas", ".fem"):
+                raise ValueError("materials from the file are read from Abaqus/CalculiX .inp "
+                                 "and Nastran .bdf/.nas/.fem files; give them by element set "
+                                 "for this one")
+            if geometry.mass_unit is None and geometry.units != "m":
+                raise ValueError(f"materials from a file in {geometry.units} need "
+                                 "geometry.mass_unit, the mass unit of the file's consistent "
+                                 "set (t with mm, N and MPa)")
         return value
 
     @field_validator("sections")
@@ -290,7 +322,8 @@ def locate(message: str, spec: LinkSpec, path: str | Path, lines: dict,
     ("geometry",) for a meshing error)."""
     key: tuple = default
     item = re.search(r"(interface|marker|point mass) '([^']+)'", message)
-    written = re.search(r"\b(geometry|material|sections|interfaces|markers|point_masses|modes)"
+    written = re.search(r"\b(geometry|materials|material|sections|interfaces|markers|"
+                        r"point_masses|modes)"
                         r"((?:\[\d+\]|\.\w+)+|(?=:))", message)  # a path, or a key and ':'
     setting = re.search(r"\b(craig_bampton|chord)\b", message)
     param = re.search(r"\bparams((?:\[\d+\]|\.\w+)+)", message)  # a recipe's own check

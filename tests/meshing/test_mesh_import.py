@@ -87,12 +87,14 @@ def test_refusals_name_the_remedy(tmp_path):
         MeshFileGeometry("a.stl", "m")
 
 
-def _spec(tmp_path: Path, mesh_file: str, units: str, interfaces: str, extra: str = ""):
+def _spec(tmp_path: Path, mesh_file: str, units: str, interfaces: str, extra: str = "",
+          materials: str = ""):
     from pipeline.workflow.link_spec import load_link_spec
 
     text = f"""name: box
 geometry: {{type: mesh, path: {mesh_file}, units: {units}{extra}}}
 material: {{E: {E}, nu: {NU}, rho: {RHO}}}
+{materials}
 interfaces:
 {interfaces}
 reference: pivot
@@ -110,20 +112,29 @@ PLANES = """  - {name: pivot, selector: {type: plane, point: [0, 0.01, 0.005], n
      kind: rbe3}"""
 
 
-def _calculix_deck(box, clamped: bool = True, storage: bool = False, n: int = 6) -> str:
+def _calculix_deck(box, clamped: bool = True, storage: bool = False, n: int = 6,
+                   parts: dict | None = None) -> str:
     """CalculiX input of the box (mm, t, s): clamped at x = 0, or free with its K and M
-    written (``storage``: *FREQUENCY, SOLVER=MATRIXSTORAGE)."""
+    written (``storage``: *FREQUENCY, SOLVER=MATRIXSTORAGE); ``parts`` (element set name ->
+    (cell indices, E Pa, nu, rho kg/m^3)) gives each set its own material (default: steel
+    for all)."""
     pts, tets, pivot, _ = box
+    parts = parts or {"EALL": (np.arange(len(tets)), E, NU, RHO)}
     rows = ["*NODE, NSET=NALL"] + [f"{i + 1}, {p[0]:.12g}, {p[1]:.12g}, {p[2]:.12g}"
                                    for i, p in enumerate(pts)]
     rows += ["*ELEMENT, TYPE=C3D10, ELSET=EALL"] + [
         f"{e + 1}, " + ", ".join(str(k + 1) for k in t) for e, t in enumerate(tets)]
     rows += ["*NSET, NSET=FIX"] + [", ".join(str(k + 1) for k in pivot[i:i + 8])
                                    for i in range(0, len(pivot), 8)]
-    # CalculiX reads 20 characters a field: 7.849999999999999e-09 would be 7.85
-    rows += ["*MATERIAL, NAME=STEEL", "*ELASTIC", f"{E * 1e-6:.12g}, {NU:.12g}", "*DENSITY",
-             f"{RHO * 1e-12:.12g}", "*SOLID SECTION, ELSET=EALL, MATERIAL=STEEL", "*STEP",
-             "*FREQUENCY" + (", SOLVER=MATRIXSTORAGE" if storage else ""), str(n)]
+    for name, (cells, e_mod, nu, rho) in parts.items():
+        if name != "EALL":
+            rows += [f"*ELSET, ELSET={name}"] + [", ".join(str(k + 1) for k in cells[i:i + 8])
+                                                 for i in range(0, len(cells), 8)]
+        # CalculiX reads 20 characters a field: 7.849999999999999e-09 would be 7.85
+        rows += [f"*MATERIAL, NAME=M{name}", "*ELASTIC", f"{e_mod * 1e-6:.12g}, {nu:.12g}",
+                 "*DENSITY", f"{rho * 1e-12:.12g}",
+                 f"*SOLID SECTION, ELSET={name}, MATERIAL=M{name}"]
+    rows += ["*STEP", "*FREQUENCY" + (", SOLVER=MATRIXSTORAGE" if storage else ""), str(n)]
     rows += (["*BOUNDARY", "FIX, 1, 3"] if clamped else []) + ["*END STEP"]
     return "\n".join(rows) + "\n"
 
@@ -137,9 +148,10 @@ def _run_calculix(work: Path, deck: str, job: str = "box") -> str:
     return (work / f"{job}.dat").read_text()
 
 
-def _calculix_frequencies(tmp_path: Path, box, n: int = 6) -> np.ndarray:
+def _calculix_frequencies(tmp_path: Path, box, n: int = 6, parts: dict | None = None
+                          ) -> np.ndarray:
     """Clamped frequencies, Hz, of CalculiX's C3D10 model of the same mesh (mm, t, s)."""
-    dat = _run_calculix(tmp_path / "ccx", _calculix_deck(box, n=n))
+    dat = _run_calculix(tmp_path / "ccx", _calculix_deck(box, n=n, parts=parts))
     table = dat.split("E I G E N V A L U E   O U T P U T")[1]
     rows = re.findall(r"^\s+(\d+)\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s*$", table, re.MULTILINE)
     return np.array([float(r[3]) for r in rows[:n]])
@@ -165,6 +177,171 @@ def test_imported_link_has_calculix_frequencies(tmp_path, box, fmt, suffix, inte
     assert np.allclose(ours[:2], ref[:2], rtol=1e-6), (ours, ref)
     assert np.allclose(ours, ref, rtol=3e-5), (ours, ref)
     assert link.mass == pytest.approx(RHO * 0.4 * 0.02 * 0.01, rel=1e-12)
+
+
+#: the far part of the two-material box: aluminium beyond x = 150 mm
+E2, NU2, RHO2, X_JOINT = 7.0e10, 0.33, 2700.0, 150.0
+TWO = "materials: {FAR: {E: 7.0e10, nu: 0.33, rho: 2700.0}}"
+
+
+def _two_parts(box):
+    """(near, far) cell indices of the box, split at x = X_JOINT (an element boundary)."""
+    pts, tets, _, _ = box
+    x = pts[tets[:, :4]].mean(axis=1)[:, 0]
+    return np.flatnonzero(x < X_JOINT), np.flatnonzero(x > X_JOINT)
+
+
+def test_element_sets_and_property_ids_become_cell_groups(tmp_path, box):
+    pts, tets, pivot, _ = box
+    near, far = _two_parts(box)
+    inp = tmp_path / "two.inp"
+    meshio.write(inp, meshio.Mesh(pts, [("tetra10", tets)], point_sets={"pivot": pivot},
+                                  cell_sets={"NEAR": [near], "FAR": [far]}))
+    mesh = read_mesh(MeshFileGeometry(inp, "mm"), "box")
+    assert set(mesh.cell_groups) == {"NEAR", "FAR"}
+    assert np.array_equal(mesh.cell_groups["FAR"], far)
+    assert np.all(mesh.points[mesh.cells["tetra10"][mesh.cell_groups["FAR"]][:, :4], 0]
+                  >= X_JOINT * 1e-3 - 1e-12)
+    bdf = tmp_path / "two.bdf"
+    pid = np.where(np.isin(np.arange(len(tets)), far), 2, 1)
+    meshio.write(bdf, meshio.Mesh(pts, [("tetra10", tets)], cell_data={"nastran:ref": [pid]}))
+    mesh = read_mesh(MeshFileGeometry(bdf, "mm"), "box")
+    assert set(mesh.cell_groups) == {"PID1", "PID2"}
+    assert np.array_equal(mesh.cell_groups["PID2"], far)
+    # gmsh: physical volumes name cell groups (a physical surface names nodes only)
+    msh = tmp_path / "two.msh"
+    phys = np.where(np.isin(np.arange(len(tets)), far), 2, 1)
+    face = tets[:2, [0, 1, 2, 4, 5, 6]]
+    meshio.write(msh, meshio.Mesh(pts, [("tetra10", tets), ("triangle6", face)],
+                                  cell_data={"gmsh:physical": [phys, np.array([3, 3])],
+                                             "gmsh:geometrical": [phys, np.array([3, 3])]},
+                                  field_data={"NEAR": np.array([1, 3]), "FAR": np.array([2, 3]),
+                                              "FACE": np.array([3, 2])}),
+                 file_format="gmsh22", binary=False)
+    mesh = read_mesh(MeshFileGeometry(msh, "mm"), "box")
+    assert set(mesh.cell_groups) == {"NEAR", "FAR"} and "FACE" in mesh.groups
+    assert np.array_equal(mesh.cell_groups["FAR"], far)
+
+
+@pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (apt calculix-ccx) absent")
+def test_a_link_of_two_materials_has_calculix_frequencies(tmp_path, box):
+    """Steel to x = 150 mm, aluminium beyond, by element set: the imported link's clamped
+    frequencies against CalculiX's model with a *SOLID SECTION per set (same bounds as
+    the one-material box above); the mass is the two parts' by closed form."""
+    from pipeline.workflow.link_build import reduce_spec
+
+    pts, tets, pivot, tip = box
+    near, far = _two_parts(box)
+    meshio.write(tmp_path / "two.inp",
+                 meshio.Mesh(pts, [("tetra10", tets)], point_sets={"pivot": pivot, "tip": tip},
+                             cell_sets={"NEAR": [near], "FAR": [far]}))
+    spec = _spec(tmp_path, "two.inp", "mm", GROUPS, materials=TWO)
+    link, _ = reduce_spec(spec, tmp_path, tmp_path / "out")
+    ref = _calculix_frequencies(tmp_path, box, parts={"NEAR": (near, E, NU, RHO),
+                                                      "FAR": (far, E2, NU2, RHO2)})
+    ours = np.asarray(link.frequencies_hz)[:6]
+    (tmp_path / "one").mkdir()
+    steel_only = _calculix_frequencies(tmp_path / "one", box)
+    print("two materials, Hz: ours", ours, "CalculiX", ref, "steel alone", steel_only)
+    assert abs(ref[0] / steel_only[0] - 1) > 0.05  # the second material matters
+    assert np.allclose(ours[:2], ref[:2], rtol=1e-6), (ours, ref)
+    assert np.allclose(ours, ref, rtol=3e-5), (ours, ref)
+    volume = 0.4 * 0.02 * 0.01
+    assert link.mass == pytest.approx(volume * (RHO * 0.375 + RHO2 * 0.625), rel=1e-12)
+    assert link.meta["materials"]["FAR"] == {"E": E2, "nu": NU2, "rho": RHO2,
+                                             "cells": len(far)}
+    # the Nastran twin, its second part by property id: the same link
+    pid = np.where(np.isin(np.arange(len(tets)), far), 2, 1)
+    meshio.write(tmp_path / "two.bdf",
+                 meshio.Mesh(pts, [("tetra10", tets)], cell_data={"nastran:ref": [pid]}))
+    spec = _spec(tmp_path, "two.bdf", "mm", PLANES, materials=TWO.replace("FAR", "PID2"))
+    twin, _ = reduce_spec(spec, tmp_path, tmp_path / "out")
+    assert np.allclose(twin.frequencies_hz[:6], ours, rtol=1e-9)
+    assert twin.mass == pytest.approx(link.mass, rel=1e-12)
+    # the materials the files give: CalculiX's own deck (*MATERIAL, *SOLID SECTION; mm, t,
+    # MPa), and the Nastran file with its MAT1 and PSOLID cards (steel in small field,
+    # aluminium in free field): the same link again
+    spec = _spec(tmp_path, "ccx/box.inp", "mm", PLANES, extra=", mass_unit: t",
+                 materials="materials: file")
+    deck, _ = reduce_spec(spec, tmp_path, tmp_path / "out")
+    bdf = (tmp_path / "two.bdf").read_text().replace(
+        "ENDDATA", "MAT1    1       210000.         .3      7.85-9\n"
+                   "MAT1,2,7.+4,,.33,2.7-9\nPSOLID  1       1\nPSOLID,2,2\nENDDATA")
+    (tmp_path / "cards.bdf").write_text(bdf)
+    spec = _spec(tmp_path, "cards.bdf", "mm", PLANES, extra=", mass_unit: t",
+                 materials="materials: file")
+    cards, _ = reduce_spec(spec, tmp_path, tmp_path / "out")
+    for other in (deck, cards):
+        assert np.allclose(other.frequencies_hz[:6], ours, rtol=1e-9)
+        assert other.mass == pytest.approx(link.mass, rel=1e-12)
+
+
+@pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (apt calculix-ccx) absent")
+def test_a_link_of_two_materials_deflects_as_in_calculix(tmp_path, box):
+    """The two-material box clamped at x = 0 with 10 N on each tip node along y: the
+    imported file's stiffness (assembled here, materials from the file) against CalculiX's
+    static solution on the same deck; the mean tip deflection within 1e-6."""
+    import scipy.sparse.linalg as spla
+
+    from pipeline.fem import Material, assemble_solid
+    from pipeline.meshing.file_materials import read_file_materials
+
+    pts, tets, pivot, tip = box
+    near, far = _two_parts(box)
+    deck = _calculix_deck(box, parts={"NEAR": (near, E, NU, RHO), "FAR": (far, E2, NU2, RHO2)})
+    head = deck[:deck.index("*STEP")]
+    deck = head + "\n".join(
+        ["*NSET, NSET=TIP"] + [", ".join(str(k + 1) for k in tip[i:i + 8])
+                               for i in range(0, len(tip), 8)]
+        + ["*STEP", "*STATIC", "*BOUNDARY", "FIX, 1, 3", "*CLOAD", "TIP, 2, 10.",
+           "*NODE PRINT, NSET=TIP", "U", "*END STEP"]) + "\n"
+    dat = _run_calculix(tmp_path / "ccx", deck, "static")
+    rows = re.findall(r"^\s+(\d+)\s+(\S+)\s+(\S+)\s+(\S+)\s*$",
+                      dat.split("displacements")[1], re.MULTILINE)
+    ccx_uy = np.mean([float(r[2]) for r in rows]) * 1e-3  # mm -> m
+    assert len(rows) == len(tip)
+
+    path = tmp_path / "ccx" / "static.inp"
+    mesh = read_mesh(MeshFileGeometry(path, "mm"), "box")
+    mats = {k: Material(*v) for k, v in read_file_materials(path, "abaqus", 1e-3, 1e3).items()}
+    model = assemble_solid(mesh, Material(E, NU, RHO), "box", mats)
+    fixed = model.node_dofs[pivot].ravel()
+    free = np.setdiff1d(np.arange(model.n_dof), fixed)
+    f = np.zeros(model.n_dof)
+    f[model.node_dofs[tip, 1]] = 10.0
+    K = model.stiffness.tocsr()
+    u = np.zeros(model.n_dof)
+    u[free] = spla.spsolve(K[free][:, free].tocsc(), f[free])
+    ours = u[model.node_dofs[tip, 1]].mean()
+    assert 1e-4 < abs(ccx_uy) < 1e-2
+    print(f"tip deflection: ours {ours:.10e} m, CalculiX {ccx_uy:.10e} m")
+    assert ours == pytest.approx(ccx_uy, rel=1e-6)
+
+
+def test_materials_are_refused_where_they_cannot_apply(tmp_path, box):
+    from pipeline.workflow.link_build import reduce_spec
+
+    _write(tmp_path / "box.inp", box, "abaqus")
+    spec = _spec(tmp_path, "box.inp", "mm", GROUPS, materials=TWO)
+    with pytest.raises(ConfigError, match=r"materials\.FAR: the mesh has no element set 'FAR'"):
+        reduce_spec(spec, tmp_path, tmp_path / "out")
+    with pytest.raises(ConfigError, match=r"box\.yaml:\d+: materials: .*file in mm need "
+                                          r"geometry\.mass_unit"):
+        _spec(tmp_path, "box.inp", "mm", GROUPS, materials="materials: file")
+    with pytest.raises(ConfigError, match=r"box\.yaml:\d+: materials: .*from Abaqus"):
+        _spec(tmp_path, "box.vtu", "m", GROUPS, materials="materials: file")
+    with pytest.raises(ConfigError, match=r"box\.inp: has no solid section"):
+        reduce_spec(_spec(tmp_path, "box.inp", "mm", GROUPS, extra=", mass_unit: t",
+                          materials="materials: file"), tmp_path, tmp_path / "out")
+    with pytest.raises(ConfigError, match=r"box\.yaml:\d+: materials: .*need a mesh file"):
+        from pipeline.workflow.link_spec import load_link_spec
+
+        (tmp_path / "box.yaml").write_text(
+            "name: box\ngeometry: {type: solid, recipe: bar, params: {length: 1, width: 0.1, "
+            "height: 0.1}, mesh_size: 0.05}\nmaterial: {E: 2.1e11, nu: 0.3, rho: 7850}\n" + TWO +
+            "\ninterfaces:\n" + PLANES.replace("0.4", "1.0") + "\nreference: pivot\n"
+            "modes: {count: 4}\n")
+        load_link_spec(tmp_path / "box.yaml")
 
 
 def test_a_file_in_mm_read_as_m_is_caught(tmp_path, box):
