@@ -34,7 +34,7 @@ from pipeline.fem.model import FemModel
 from pipeline.meshing.imported import MASS_UNITS, MatrixFiles
 from pipeline.meshing.mesh_data import MeshData
 
-__all__ = ["read_matrices"]
+__all__ = ["input_node_points", "read_matrices"]
 
 #: mass unit -> kg
 #: the largest matrix file read, bytes
@@ -56,15 +56,13 @@ def read_matrices(files: MatrixFiles, mesh: MeshData, length_scale: float,
             raise MeshError(f"{where}: {p}: no such file")
         if p.stat().st_size > MAX_MATRIX_BYTES:
             raise MeshError(f"{where}: {p}: larger than {MAX_MATRIX_BYTES / 2**30:.0f} GB")
-    ids, coords = _inp_nodes(files.nodes_from, where)
+    point_of_id = input_node_points(files.nodes_from, mesh, length_scale, where)
     if files.format == "calculix":
         rows = _calculix_dofs(files.dofs, where)
         K = _triplets(files.stiffness, len(rows), where)
         M = _triplets(files.mass, len(rows), where)
     else:
         rows, K, M = _abaqus_pair(files.stiffness, files.mass, where)
-    # the FE code's node -> the mesh point at its coordinates
-    point_of_id = _match_nodes(ids, coords * length_scale, mesh.points, where)
     node_dofs = np.full((mesh.n_points, 3), -1, dtype=np.int64)
     for r, (node, d) in enumerate(rows):
         if d > 3:
@@ -93,6 +91,17 @@ def read_matrices(files: MatrixFiles, mesh: MeshData, length_scale: float,
               "source": f"{files.format} matrices {files.stiffness.name}, {files.mass.name}"}
     return FemModel(name=name, kind="solid", nodes=mesh.points.copy(), node_dofs=node_dofs,
                     stiffness=K, mass=M, extras=extras)
+
+
+def input_node_points(path: Path, mesh: MeshData, length_scale: float,
+                      where: str) -> dict[int, int]:
+    """{node number of the FE input ``path`` (its ``*NODE`` lines): index of the mesh point
+    at its coordinates} (``length_scale`` m per file unit): how another code's results on
+    that input (matrices, mode files) find the mesh's nodes.
+
+    Raises MeshError when the input has no ``*NODE`` lines or a mesh point no node."""
+    ids, coords = _inp_nodes(path, where)
+    return _match_nodes(ids, coords * length_scale, mesh.points, where)
 
 
 def _inp_nodes(path: Path, where: str) -> tuple[np.ndarray, np.ndarray]:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import logging
 import sys
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -30,6 +31,7 @@ from pipeline.meshing.budget import MeshBudget
 from pipeline.meshing.geometry import BeamGeometry, SolidGeometry
 from pipeline.meshing.imported import MeshFileGeometry
 from pipeline.meshing.mesh_data import MeshData
+from pipeline.modes.basis import ModalBasis
 
 logger = logging.getLogger(__name__)
 
@@ -76,6 +78,7 @@ class LinkRequest:
     geometric_stiffening: bool = False
     chord: str | None = None
     mesh_budget: MeshBudget | None = None
+    modes_file: Path | None = None  # clamped modes computed by another FE code (.frd)
 
 
 def reduce_link(request: LinkRequest, times: StageTimes | None = None,
@@ -112,9 +115,13 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
         from pipeline.modes.clamp import ClampedProblem
 
         problem = ClampedProblem(tied, request.reference, request.chord)
-        basis = clamped_modes(tied, request.reference, n_modes=request.n_modes,
-                              f_max=request.f_max, craig_bampton=request.craig_bampton,
-                              problem=problem)
+        file_stress = None
+        if request.modes_file is None:
+            basis = clamped_modes(tied, request.reference, n_modes=request.n_modes,
+                                  f_max=request.f_max, craig_bampton=request.craig_bampton,
+                                  problem=problem)
+        else:
+            basis, file_stress = _external_modes(request, mesh, model, tied, problem)
     with stage(f"invariants of link '{name}'", times):
         moments = mass_moments(model, basis.shapes)
         markers = tuple(_marker_interface(model, m) for m in request.markers)
@@ -165,13 +172,21 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
     if "material" in model.extras or model.kind == "beam":
         with stage(f"stress modes of link '{name}'", times):
             S = _stress_to_body(model, ref.pose, stress_modes(model, basis.shapes))
+    elif file_stress is not None:
+        S = _stress_to_body(model, ref.pose, file_stress)
     info["stage_seconds"] = times.as_dict()  # with the stress modes
     info["factorisation"] = basis.settings.get("factorisation")
+    if "external" in basis.settings:  # modes from another FE code: which, and how they fit
+        info["modes_file"] = dict(basis.settings["external"])
     info["peak_memory_mib"] = peak_memory_mib()
     if S is None:
         info["stress"] = {"unavailable": "the link's K and M came from another FE code as "
                                          "matrices, without its element formulation: no "
                                          "stress modes"}
+    elif "material" not in model.extras and model.kind != "beam":
+        info["stress"] = {"kind": "voigt", "components": list(VOIGT), "units": "Pa, body axes",
+                          "recovery": f"the FE code's nodal stresses of its modes "
+                                      f"({request.modes_file.name})"}
     elif model.kind == "beam":
         info["stress"] = {"kind": "resultants", "components": list(RESULTANTS),
                           "units": "N, N m, element axes"}
@@ -185,6 +200,27 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
                        inertia_geometric_stiffness=KI)
     # repeated frequencies (symmetric sections): modes along the body axes, not mixtures
     return align_repeated(link)
+
+
+def _external_modes(request: LinkRequest, mesh: MeshData, model: FemModel, tied,
+                    problem) -> tuple[ModalBasis, np.ndarray | None]:
+    """The basis of the modes another FE code computed (``request.modes_file``), and, for a
+    link imported as matrices, the code's stress modes (m, n_nodes, 6), Pa, link axes."""
+    from pipeline.fem.imported import input_node_points
+    from pipeline.meshing.imported import MASS_UNITS
+    from pipeline.modes.external import external_basis, mode_stresses, read_frd
+
+    g = request.geometry
+    where = f"link '{request.name}': modes.file"
+    modes = read_frd(request.modes_file)
+    node_of_id = input_node_points(g.path, mesh, g.scale, where)
+    basis, W = external_basis(model, tied, request.reference, problem.K, problem.M,
+                              problem.space.keep, modes, node_of_id, g.scale,
+                              request.n_modes, request.f_max)
+    if g.matrices is None or modes.stresses is None:
+        return basis, None
+    unit = MASS_UNITS[g.matrices.mass_unit] / g.scale  # Pa per the file's stress unit
+    return basis, mode_stresses(modes, node_of_id, model.n_nodes, W, unit)
 
 
 def peak_memory_mib() -> float | None:

@@ -192,6 +192,11 @@ class ModesSpec(Strict):
         None, description="chord reference: instead of clamping the reference interface, hold "
                           "it in translation and about the line to this interface, which moves "
                           "along that line only (a link pinned at both ends)")
+    file: str | None = Field(
+        None, description="clamped modes computed by another FE code, relative to the spec "
+                          "file: CalculiX .frd of a *FREQUENCY step clamped at the "
+                          "reference's nodes (*NODE FILE U; *EL FILE S for stresses), on the "
+                          "mesh of geometry.path (.inp); used instead of solving for them")
     geometric_stiffening: bool = Field(
         False, description="compute the geometric stiffness of the modes under forces at their "
                            "frames, uniform accelerations and their own spin (beams, P2 "
@@ -207,6 +212,9 @@ class ModesSpec(Strict):
         if self.chord is not None and self.craig_bampton:
             raise ValueError("chord and craig_bampton exclude each other (the chord reference "
                              "already holds the far interface)")
+        if self.file is not None and (self.craig_bampton or self.chord is not None):
+            raise ValueError("modes from a file are clamped at the reference: craig_bampton "
+                             "and chord do not apply")
         return self
 
 
@@ -236,6 +244,17 @@ class LinkSpec(Strict):
         names = [i.name for i in info.data.get("interfaces", [])]
         if names and value not in names:
             raise ValueError(f"expected one of the interfaces {names}, got {value!r}")
+        return value
+
+    @field_validator("modes")
+    @classmethod
+    def _modes_file_needs_its_input(cls, value: ModesSpec, info: ValidationInfo) -> ModesSpec:
+        geometry = info.data.get("geometry")
+        if value.file is not None and geometry is not None and (
+                geometry.type != "mesh" or not geometry.path.lower().endswith(".inp")):
+            raise ValueError("file: modes from another FE code need its input as the mesh "
+                             "(geometry type mesh with the FE code's .inp, whose *NODE "
+                             "numbers the results use)")
         return value
 
     @field_validator("modes")

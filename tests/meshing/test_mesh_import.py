@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import re
 import shutil
-import subprocess
 import sys
 from pathlib import Path
 
@@ -21,21 +20,19 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from box_mesh import box_tet10
+from calculix_box import GROUPS, NU, PLANES, RHO, E, L, make_box
+from calculix_box import calculix_deck as _calculix_deck
+from calculix_box import calculix_frequencies as _calculix_frequencies
+from calculix_box import run_calculix as _run_calculix
+from calculix_box import write_spec as _spec
 
 from pipeline.core.errors import ConfigError, MeshError
 from pipeline.meshing.imported import MeshFileGeometry, read_mesh
 
-L, B, H = 400.0, 20.0, 10.0  # mm
-E, NU, RHO = 2.1e11, 0.3, 7850.0
-
 
 @pytest.fixture(scope="module")
 def box():
-    pts, tets = box_tet10(L, B, H, (16, 2, 2))
-    pivot = np.flatnonzero(pts[:, 0] == 0.0)
-    tip = np.flatnonzero(pts[:, 0] == L)
-    return pts, tets, pivot, tip
+    return make_box()
 
 
 def _write(path: Path, box, fmt: str, extra_cells=()) -> Path:
@@ -85,76 +82,6 @@ def test_refusals_name_the_remedy(tmp_path):
         MeshFileGeometry("a.inp", "furlong")
     with pytest.raises(ConfigError, match="suffixes"):
         MeshFileGeometry("a.stl", "m")
-
-
-def _spec(tmp_path: Path, mesh_file: str, units: str, interfaces: str, extra: str = "",
-          materials: str = ""):
-    from pipeline.workflow.link_spec import load_link_spec
-
-    text = f"""name: box
-geometry: {{type: mesh, path: {mesh_file}, units: {units}{extra}}}
-material: {{E: {E}, nu: {NU}, rho: {RHO}}}
-{materials}
-interfaces:
-{interfaces}
-reference: pivot
-modes: {{count: 6}}
-"""
-    p = tmp_path / "box.yaml"
-    p.write_text(text)
-    return load_link_spec(p)
-
-
-GROUPS = """  - {name: pivot, selector: {type: group, name: pivot}, origin: [0, 0.01, 0.005]}
-  - {name: tip, selector: {type: group, name: tip}, origin: [0.4, 0.01, 0.005], kind: rbe3}"""
-PLANES = """  - {name: pivot, selector: {type: plane, point: [0, 0.01, 0.005], normal: [1, 0, 0]}}
-  - {name: tip, selector: {type: plane, point: [0.4, 0.01, 0.005], normal: [1, 0, 0]},
-     kind: rbe3}"""
-
-
-def _calculix_deck(box, clamped: bool = True, storage: bool = False, n: int = 6,
-                   parts: dict | None = None) -> str:
-    """CalculiX input of the box (mm, t, s): clamped at x = 0, or free with its K and M
-    written (``storage``: *FREQUENCY, SOLVER=MATRIXSTORAGE); ``parts`` (element set name ->
-    (cell indices, E Pa, nu, rho kg/m^3)) gives each set its own material (default: steel
-    for all)."""
-    pts, tets, pivot, _ = box
-    parts = parts or {"EALL": (np.arange(len(tets)), E, NU, RHO)}
-    rows = ["*NODE, NSET=NALL"] + [f"{i + 1}, {p[0]:.12g}, {p[1]:.12g}, {p[2]:.12g}"
-                                   for i, p in enumerate(pts)]
-    rows += ["*ELEMENT, TYPE=C3D10, ELSET=EALL"] + [
-        f"{e + 1}, " + ", ".join(str(k + 1) for k in t) for e, t in enumerate(tets)]
-    rows += ["*NSET, NSET=FIX"] + [", ".join(str(k + 1) for k in pivot[i:i + 8])
-                                   for i in range(0, len(pivot), 8)]
-    for name, (cells, e_mod, nu, rho) in parts.items():
-        if name != "EALL":
-            rows += [f"*ELSET, ELSET={name}"] + [", ".join(str(k + 1) for k in cells[i:i + 8])
-                                                 for i in range(0, len(cells), 8)]
-        # CalculiX reads 20 characters a field: 7.849999999999999e-09 would be 7.85
-        rows += [f"*MATERIAL, NAME=M{name}", "*ELASTIC", f"{e_mod * 1e-6:.12g}, {nu:.12g}",
-                 "*DENSITY", f"{rho * 1e-12:.12g}",
-                 f"*SOLID SECTION, ELSET={name}, MATERIAL=M{name}"]
-    rows += ["*STEP", "*FREQUENCY" + (", SOLVER=MATRIXSTORAGE" if storage else ""), str(n)]
-    rows += (["*BOUNDARY", "FIX, 1, 3"] if clamped else []) + ["*END STEP"]
-    return "\n".join(rows) + "\n"
-
-
-def _run_calculix(work: Path, deck: str, job: str = "box") -> str:
-    work.mkdir(exist_ok=True)
-    (work / f"{job}.inp").write_text(deck)
-    run = subprocess.run(["ccx", "-i", job], cwd=work, capture_output=True, text=True,
-                         timeout=300, check=False)
-    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
-    return (work / f"{job}.dat").read_text()
-
-
-def _calculix_frequencies(tmp_path: Path, box, n: int = 6, parts: dict | None = None
-                          ) -> np.ndarray:
-    """Clamped frequencies, Hz, of CalculiX's C3D10 model of the same mesh (mm, t, s)."""
-    dat = _run_calculix(tmp_path / "ccx", _calculix_deck(box, n=n, parts=parts))
-    table = dat.split("E I G E N V A L U E   O U T P U T")[1]
-    rows = re.findall(r"^\s+(\d+)\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s*$", table, re.MULTILINE)
-    return np.array([float(r[3]) for r in rows[:n]])
 
 
 @pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (apt calculix-ccx) absent")
@@ -286,7 +213,7 @@ def test_a_link_of_two_materials_deflects_as_in_calculix(tmp_path, box):
     from pipeline.fem import Material, assemble_solid
     from pipeline.meshing.file_materials import read_file_materials
 
-    pts, tets, pivot, tip = box
+    _, _, pivot, tip = box
     near, far = _two_parts(box)
     deck = _calculix_deck(box, parts={"NEAR": (near, E, NU, RHO), "FAR": (far, E2, NU2, RHO2)})
     head = deck[:deck.index("*STEP")]
