@@ -1,4 +1,5 @@
-"""ParaView time series of a machine: one VTU per output time (meshio) and a PVD index."""
+"""ParaView time series of a machine: per output time a multiblock (.vtm) whose blocks are
+the links by name, each a VTU (meshio), and a PVD index of them by time."""
 
 from __future__ import annotations
 
@@ -15,44 +16,48 @@ from pipeline.post.scene import drawn_configuration, link_poses, posed_points
 logger = logging.getLogger(__name__)
 
 
-def machine_grid(mech, shapes, q, scale: float = 1.0):
-    """(points (N, 3), cells [(type, array)], point data, cell data) of all links at q.
+def link_grids(mech, shapes, q, scale: float = 1.0) -> list[tuple]:
+    """[(link name, points (N, 3), cells [(type, array)], point data)] of every link at q.
 
     The points are drawn with the deformation ``scale`` times along the whole chain
     (:func:`pipeline.post.scene.posed_points`). Point data: elastic ``displacement``
     (ground axes, m; from where the point is with every modal coordinate zero, so a link
-    carried by a flexible one shows that too) and its magnitude, and
-    ``von_mises`` (Pa, NaN on links without stress modes) when a link has stress modes."""
-    pts, tri, lines, disp, tri_id, line_id, n0 = [], [], [], [], [], [], 0
-    vm = []
+    carried by a flexible one shows that too) and its magnitude, and ``von_mises`` (Pa,
+    NaN on links without stress modes) when a link has stress modes."""
     poses = link_poses(mech, drawn_configuration(mech, q, scale))
     rigid = link_poses(mech, drawn_configuration(mech, q, 0.0))
-    for i, (name, s) in enumerate(shapes.items()):
+    stressed = any(s.stress is not None for s in shapes.values())
+    out = []
+    for name, s in shapes.items():
         P, _ = posed_points(mech, s, q, scale, poses)
         P0, _ = posed_points(mech, s, q, 0.0, rigid)
+        d = (P - P0) / scale if scale else np.zeros_like(P)
+        data = {"displacement": d, "displacement_magnitude": np.linalg.norm(d, axis=1)}
+        if stressed:
+            v = s.von_mises(np.asarray(q, float)[mech.modal_index[mech.link_index(s.link)]])
+            data["von_mises"] = np.full(len(P), np.nan) if v is None else v
+        cells = [(kind, c) for kind, c in (("triangle", s.triangles), ("line", s.lines))
+                 if c is not None]
+        out.append((name, P, cells, data))
+    return out
+
+
+def machine_grid(mech, shapes, q, scale: float = 1.0):
+    """(points (N, 3), cells [(type, array)], point data, cell data) of all links at q in
+    one grid (:func:`link_grids`, concatenated); cell data ``link_id``: the index of each
+    cell's link in ``shapes``."""
+    pts, by_kind, ids, n0 = [], {}, {}, 0
+    grids = link_grids(mech, shapes, q, scale)
+    for i, (_, P, cells, _) in enumerate(grids):
         pts.append(P)
-        disp.append((P - P0) / scale if scale else np.zeros_like(P))
-        v = s.von_mises(np.asarray(q, float)[mech.modal_index[mech.link_index(s.link)]])
-        vm.append(np.full(len(P), np.nan) if v is None else v)
-        if s.triangles is not None:
-            tri.append(s.triangles + n0)
-            tri_id.append(np.full(len(s.triangles), i))
-        if s.lines is not None:
-            lines.append(s.lines + n0)
-            line_id.append(np.full(len(s.lines), i))
+        for kind, c in cells:
+            by_kind.setdefault(kind, []).append(c + n0)
+            ids.setdefault(kind, []).append(np.full(len(c), i))
         n0 += len(P)
-    cells, ids = [], []
-    if tri:
-        cells.append(("triangle", np.vstack(tri)))
-        ids.append(np.concatenate(tri_id))
-    if lines:
-        cells.append(("line", np.vstack(lines)))
-        ids.append(np.concatenate(line_id))
-    d = np.vstack(disp)
-    data = {"displacement": d, "displacement_magnitude": np.linalg.norm(d, axis=1)}
-    if any(s.stress is not None for s in shapes.values()):
-        data["von_mises"] = np.concatenate(vm)  # Pa; NaN on links without stress modes
-    return np.vstack(pts), cells, data, {"link_id": ids}
+    kinds = [k for k in ("triangle", "line") if k in by_kind]
+    data = {key: np.concatenate([g[3][key] for g in grids]) for key in grids[0][3]}
+    return (np.vstack(pts), [(k, np.vstack(by_kind[k])) for k in kinds], data,
+            {"link_id": [np.concatenate(ids[k]) for k in kinds]})
 
 
 def peak_von_mises(mech, shapes, Q, chunk: int = 64) -> dict[str, tuple[np.ndarray, np.ndarray]]:
@@ -119,19 +124,44 @@ def _evenly(n: int, most: int) -> np.ndarray:
     return np.unique(np.linspace(0, n - 1, min(most, n)).round().astype(int))
 
 
+def _file_stem(name: str) -> str:
+    """A file name's stem from a link's name (what a file system takes)."""
+    return "".join(c if c.isalnum() or c in "-_" else "_" for c in name) or "link"
+
+
+def _write_frame(folder: Path, stem: str, grids) -> list[Path]:
+    """One frame as a multiblock: ``stem/<link>.vtu`` per link and ``stem.vtm`` naming
+    them by their links (what ParaView shows as the blocks). Returns the files written."""
+    import meshio
+
+    (folder / stem).mkdir(exist_ok=True)
+    files, blocks = [], []
+    for i, (link, P, cells, data) in enumerate(grids):
+        rel = f"{stem}/{i:02d}_{_file_stem(link)}.vtu"
+        meshio.write(folder / rel, _mesh32(P, cells, data, {}))
+        files.append(folder / rel)
+        blocks.append(f'    <DataSet index="{i}" name={quoteattr(link)} file={quoteattr(rel)}/>')
+    vtm = folder / f"{stem}.vtm"
+    with atomic_open(vtm, "w") as fh:
+        fh.write('<?xml version="1.0"?>\n<VTKFile type="vtkMultiBlockDataSet" version="1.0">\n'
+                 "  <vtkMultiBlockDataSet>\n" + "\n".join(blocks) +
+                 "\n  </vtkMultiBlockDataSet>\n</VTKFile>\n")
+    return [vtm, *files]
+
+
 def write_vtk_series(folder, mech, shapes, t, Q, *, scale: float = 1.0, name: str = "machine",
                      max_steps: int = 100, max_bytes: float | None = None) -> Path:
-    """Write ``folder/<name>_<k>.vtu`` (at most ``max_steps``, evenly thinned) and
-    ``folder/<name>.pvd``; point data: elastic displacement (ground axes, m) and its
-    magnitude; cell data: link_id (index in ``shapes``). Returns the .pvd path.
+    """Write the machine's ParaView time series into ``folder``: per output time a
+    multiblock ``<name>_<k>.vtm`` whose blocks are the links by name (``<name>_<k>/*.vtu``;
+    at most ``max_steps`` frames, evenly thinned), and ``<name>.pvd`` indexing them by
+    time. Point data: elastic displacement (ground axes, m) and its magnitude, von Mises
+    stress (Pa) where links have stress modes. Returns the .pvd path.
 
     Points and fields are written in single precision (zlib-compressed): a picture
     needs no more, and it halves the files. The size of the series is estimated from
     the first frame and logged; beyond ``max_bytes`` the frames are thinned further
     (evenly, at least 2). A terminal shows a progress bar.
     """
-    import meshio
-
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     t = np.asarray(t, dtype=float)
@@ -141,11 +171,10 @@ def write_vtk_series(folder, mech, shapes, t, Q, *, scale: float = 1.0, name: st
         n = 0
         while n < len(picks):
             k = picks[n]
-            P, cells, pdata, cdata = machine_grid(mech, shapes, Q[k], scale)
-            fname = f"{name}_{k:05d}.vtu"
-            meshio.write(folder / fname, _mesh32(P, cells, pdata, cdata))
+            stem = f"{name}_{k:05d}"
+            written = _write_frame(folder, stem, link_grids(mech, shapes, Q[k], scale))
             if n == 0:
-                size = (folder / fname).stat().st_size
+                size = sum(p.stat().st_size for p in written)
                 if max_bytes is not None and size * len(picks) > max_bytes:
                     # 10 % margin: compressed frames differ in size
                     fit = max(2, int(0.9 * max_bytes // size))
@@ -155,7 +184,8 @@ def write_vtk_series(folder, mech, shapes, t, Q, *, scale: float = 1.0, name: st
                     picks = _evenly(len(t), min(fit, len(picks)))  # starts at frame 0 too
                 logger.info("VTU %s: %d frames, about %.1f MB", name, len(picks),
                             size * len(picks) / 1e6)
-            entries.append(f'    <DataSet timestep="{t[k]:.9g}" part="0" file={quoteattr(fname)}/>')
+            entries.append(f'    <DataSet timestep="{t[k]:.9g}" part="0" '
+                           f'file={quoteattr(stem + ".vtm")}/>')
             n += 1
             advance(n)
     pvd = folder / f"{name}.pvd"

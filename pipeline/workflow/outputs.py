@@ -323,7 +323,7 @@ def _vtu(folder, machines, results, max_frames: int, budget_mb: float | None) ->
         if peak is not None:
             files.append(str(peak.relative_to(folder)))
         if left is not None:
-            left -= sum(p.stat().st_size for p in sub.iterdir())
+            left -= sum(p.stat().st_size for p in sub.rglob("*") if p.is_file())
         files.append(str(Path(pvd).relative_to(folder)))
     return files
 
