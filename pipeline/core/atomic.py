@@ -86,17 +86,30 @@ def _renameat2_exchange(a: Path, b: Path) -> bool:
     raise OSError(err, os.strerror(err), str(b))
 
 
-def replace_dir(new: str | os.PathLike, final: str | os.PathLike) -> None:
+def replace_dir(new: str | os.PathLike, final: str | os.PathLike,
+                keep: str | os.PathLike | None = None) -> None:
     """Put the folder ``new`` in place of ``final`` in one atomic step, then delete the old
-    contents: a reader, or a kill at any instant, sees the old folder or the new one, never
-    neither and never a mixture. Linux exchanges the two in one system call; elsewhere (or
-    on a file system without it) the old folder is renamed away first, leaving a short
-    window without ``final``."""
+    contents, or move them to ``keep`` (a new folder on the same file system): a reader, or
+    a kill at any instant, sees the old folder or the new one, never neither and never a
+    mixture. Linux exchanges the two in one system call; elsewhere (or on a file system
+    without it) the old folder is renamed away first, leaving a short window without
+    ``final``."""
     new, final = Path(new), Path(final)
+
+    def dispose(old: Path) -> None:
+        if keep is not None:
+            try:
+                Path(keep).parent.mkdir(parents=True, exist_ok=True)
+                old.rename(keep)
+                return
+            except OSError:
+                pass  # kept nowhere: deleted as without ``keep``
+        shutil.rmtree(old, ignore_errors=True)
+
     for _ in range(100):  # another process may create or replace final meanwhile
         if final.exists():
             if _renameat2_exchange(new, final):
-                shutil.rmtree(new, ignore_errors=True)  # now the old contents
+                dispose(new)  # now the old contents
                 return
             old = final.with_name(f".{final.name}.old-{os.getpid()}")
             try:
@@ -108,7 +121,7 @@ def replace_dir(new: str | os.PathLike, final: str | os.PathLike) -> None:
             except OSError:
                 old.rename(final)
                 raise
-            shutil.rmtree(old, ignore_errors=True)
+            dispose(old)
             return
         try:
             new.rename(final)

@@ -30,6 +30,7 @@ from pipeline.invariants.cache import default_links_dir
 from pipeline.post.report import REPORT, write_report
 from pipeline.workflow.analyses import AnalysisResult, run_analysis
 from pipeline.workflow.build import Machine, build_machine
+from pipeline.workflow.history import history_slot, prune_history
 from pipeline.workflow.link_build import versions
 from pipeline.workflow.load import Workflow, load_workflow
 from pipeline.workflow.names import check_folder_owner, check_run_folder
@@ -328,7 +329,9 @@ def _run_locked(wf, cache_dir, final, tmp, rebuild, outputs, workers, timings,
         if outputs:  # from what the run wrote: `pipeline report` makes it again the same
             with stage(f"{wf.name}: report"):
                 write_report(tmp)
-        replace_dir(tmp, final)
+        kept = wf.spec.outputs.history
+        replace_dir(tmp, final, history_slot(final) if kept.runs and final.exists() else None)
+        prune_history(final, kept.runs, kept.mb)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise

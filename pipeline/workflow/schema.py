@@ -541,6 +541,13 @@ class ExportSpec(Strict):
                                                          "to stay within it (null: none)")
 
 
+class HistorySpec(Strict):
+    runs: int = Field(5, ge=0, le=1000, description="earlier runs kept in "
+                                                    "output/<name>.history/ (0: none)")
+    mb: float | None = Field(500.0, gt=0, description="size budget of the kept runs, MB: "
+                                                      "the oldest go first (null: none)")
+
+
 class OutputSpec(Strict):
     plots: list[PlotSpec] = Field(default_factory=list)
     renders: list[RenderSpec] = Field(default_factory=list)
@@ -548,6 +555,8 @@ class OutputSpec(Strict):
     convergence: list[ConvergenceSpec] = Field(default_factory=list)
     exports: ExportSpec = Field(default_factory=ExportSpec)
     units: UnitsSpec = Field(default_factory=UnitsSpec, description="units of every plot")
+    history: HistorySpec = Field(default_factory=HistorySpec,
+                                 description="earlier runs kept beside the latest")
 
 
 class WorkflowSpec(Strict):
