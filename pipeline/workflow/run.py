@@ -35,6 +35,7 @@ from pipeline.workflow.link_build import versions
 from pipeline.workflow.load import Workflow, load_workflow
 from pipeline.workflow.names import check_folder_owner, check_run_folder
 from pipeline.workflow.series import check_series, coordinate_unit
+from pipeline.workflow.store import STORE, run_rows, write_store
 
 logger = logging.getLogger(__name__)
 
@@ -321,11 +322,15 @@ def _run_locked(wf, cache_dir, final, tmp, rebuild, outputs, workers, timings,
         if skipped and status == "ok":
             status = "partial"
         timings["total"] = time.perf_counter() - t_start
+        store = outputs and wf.spec.outputs.exports.store and _can_store(skipped)
         if outputs:
-            files.append(REPORT)
+            files += [REPORT] + ([STORE] if store else [])
         manifest = _manifest(wf, base, results, timings, status, files, mobility)
         manifest["skipped_outputs"] = skipped
         (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, default=str))
+        if store:
+            with stage(f"{wf.name}: results store"):
+                write_store(tmp / STORE, run_rows(wf, machines, results), manifest)
         if outputs:  # from what the run wrote: `pipeline report` makes it again the same
             with stage(f"{wf.name}: report"):
                 write_report(tmp)
@@ -336,6 +341,17 @@ def _run_locked(wf, cache_dir, final, tmp, rebuild, outputs, workers, timings,
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return RunResult(wf, final, base, machines, results, manifest)
+
+
+def _can_store(skipped: list[str]) -> bool:
+    """Whether pyarrow is there for the results store (else a note in ``skipped``)."""
+    try:
+        import pyarrow.parquet  # noqa: F401
+    except ImportError:
+        skipped.append(f"exports: {STORE}: needs pyarrow (pip install "
+                       "'flexmech-pipeline[study]')")
+        return False
+    return True
 
 
 def _mobility(wf: Workflow, m: Machine) -> dict:

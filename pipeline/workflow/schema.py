@@ -533,6 +533,8 @@ class ConvergenceSpec(Strict):
 class ExportSpec(Strict):
     csv: bool = True
     npz: bool = True
+    store: bool = Field(True, description="results.parquet: every series of the run with its "
+                                          "unit, and the manifest (needs pyarrow)")
     vtu: bool = Field(False, description="ParaView time series (vtk/<analysis>/*.pvd)")
     vtu_frames: int = Field(100, ge=1, le=5000, description="VTU frames per result at most "
                                                             "(evenly thinned output times)")
