@@ -16,7 +16,7 @@ ONLY_IN = {
     "numba": ("kinematics", "dynamics", "solver"),
     "distributed": ("core", "study"),  # core: the one case runner
     "dask": ("core", "study"),
-    "pyarrow": ("study",),
+    "pyarrow": ("study", "workflow"),  # workflow: the run's results store
 }
 #: subpackage -> pipeline subpackages it must not import (the solver side stays FE-free)
 FORBIDDEN = {
