@@ -35,7 +35,8 @@ Pictures
     :func:`machine_shapes` / :func:`shape_from_reduced`, :func:`render_machine`,
     :func:`render_positions`, :func:`animate_machine`, :func:`render_modes`,
     :func:`write_vtk_series`, :func:`plot_panels` (a PNG) or :func:`panels_figure` (a
-    Figure, for a notebook).
+    Figure, for a notebook); :func:`machine_plotter` (a pyvista Plotter) and
+    :func:`machine_blocks` (a MultiBlock of the links by name), for a notebook.
 Workflows and studies
     :func:`load_workflow`, :func:`build_machine`, :func:`run_workflow`, :func:`run_study`
     (mode-truncation and design studies on Dask, ``docs/studies.md``).
@@ -95,6 +96,8 @@ _HOMES = {
     "animate_machine": "pipeline.post.scene",
     "render_machine": "pipeline.post.scene",
     "render_positions": "pipeline.post.scene",
+    "machine_plotter": "pipeline.post.scene",
+    "machine_blocks": "pipeline.post.vtk_series",
     "LinkShape": "pipeline.post.shapes",
     "shape_from_reduced": "pipeline.post.shapes",
     "write_vtk_series": "pipeline.post.vtk_series",
@@ -157,11 +160,12 @@ if TYPE_CHECKING:  # what the names are, for readers and type checkers
         Picture,
         Style,
         animate_machine,
+        machine_plotter,
         render_machine,
         render_positions,
     )
     from pipeline.post.shapes import LinkShape, shape_from_reduced
-    from pipeline.post.vtk_series import write_vtk_series
+    from pipeline.post.vtk_series import machine_blocks, write_vtk_series
     from pipeline.solver import Limits, SimulationResult, simulate
     from pipeline.solver.cosim import FMU, SampledPID, cosimulate
     from pipeline.solver.simulator import Simulator, SimulatorState
@@ -219,7 +223,7 @@ __all__ = [
     "build_machine", "build_mechanism", "cosimulate", "dof_report",
     "effective_mass_fractions", "energies",
     "initial_positions", "kept_modes", "kinetostatics", "link_from_reduced", "load_link_spec",
-    "load_workflow", "machine_shapes", "marker_motion", "marker_positions", "panels_figure",
+    "load_workflow", "machine_blocks", "machine_plotter", "machine_shapes", "marker_motion", "marker_positions", "panels_figure",
     "plot_panels", "principal_stresses", "reduce_link", "render_machine", "render_modes", "render_positions",
     "rigid_link", "run_study", "run_workflow", "series", "shape_from_reduced", "simulate",
     "static_equilibrium", "sweep", "vibration_modes", "von_mises", "write_vtk_series",

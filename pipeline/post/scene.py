@@ -494,6 +494,30 @@ def render_positions(path, mech, shapes, Q, labels=None, *, scale: float = 1.0,
     as grey wireframes (e.g. the undeformed ones), one per q. ``mech`` and ``shapes``:
     one machine's, or one per configuration (cases of different models; see
     :func:`configurations`)."""
+    plotter, boxes = _machine_plotter(mech, shapes, Q, labels, scale=scale, title=title,
+                                      camera=camera, ghost_q=ghost_q, style=style,
+                                      window_size=window_size)
+    try:
+        image = plotter.screenshot(return_img=True)
+    finally:
+        plotter.close()
+    return Picture(save_png(image, path), boxes)
+
+
+def machine_plotter(mech, shapes, Q, labels=None, *, scale: float = 1.0,
+                    title: str | None = None, camera: str = "iso", ghost_q=None,
+                    style: Style | None = None, window_size: tuple[int, int] = (1200, 900)):
+    """The off-screen pyvista Plotter of what :func:`render_positions` draws (Q: one
+    configuration (n,) or several (k, n)), for a notebook to show or a script to add to;
+    the caller closes it. Nothing process-wide is changed."""
+    Q = np.atleast_2d(np.asarray(Q, dtype=float))
+    return _machine_plotter(mech, shapes, Q, labels, scale=scale, title=title, camera=camera,
+                            ghost_q=ghost_q, style=style, window_size=window_size)[0]
+
+
+def _machine_plotter(mech, shapes, Q, labels, *, scale, title, camera, ghost_q, style,
+                     window_size):
+    """(Plotter, label boxes (display pixels)) of :func:`render_positions`'s picture."""
     pv = _pyvista()
     style = style or Style()
     scene = configurations(mech, shapes, Q)
@@ -529,10 +553,10 @@ def render_positions(path, mech, shapes, Q, labels=None, *, scale: float = 1.0,
         if labels:
             anchors = label_anchors(mech, shapes, Q, scale)
             boxes = _add_labels(plotter, anchors, labels, style)
-        image = plotter.screenshot(return_img=True)
-    finally:
+    except BaseException:
         plotter.close()
-    return Picture(save_png(image, path), boxes)
+        raise
+    return plotter, boxes
 
 
 def frame_poses(mech, q) -> tuple[tuple[str, np.ndarray], ...]:

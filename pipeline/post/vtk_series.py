@@ -42,6 +42,28 @@ def link_grids(mech, shapes, q, scale: float = 1.0) -> list[tuple]:
     return out
 
 
+def machine_blocks(mech, shapes, q, scale: float = 1.0):
+    """A pyvista MultiBlock of the machine at q (n,): one block per link, named by it, its
+    surface (or lines) drawn with the deformation ``scale`` times, point data as
+    :func:`link_grids` (what each frame of :func:`write_vtk_series` holds), for a notebook
+    to plot or slice."""
+    import pyvista as pv
+
+    blocks = pv.MultiBlock()
+    for name, P, cells, data in link_grids(mech, shapes, q, scale):
+        faces = [np.column_stack([np.full(len(c), c.shape[1]), c]).ravel()
+                 for kind, c in cells if kind == "triangle"]
+        lines = [np.column_stack([np.full(len(c), 2), c]).ravel()
+                 for kind, c in cells if kind == "line"]
+        mesh = pv.PolyData(np.asarray(P, dtype=float),
+                           faces=np.concatenate(faces) if faces else None,
+                           lines=np.concatenate(lines) if lines else None)
+        for key, value in data.items():
+            mesh.point_data[key] = value
+        blocks[name] = mesh
+    return blocks
+
+
 def machine_grid(mech, shapes, q, scale: float = 1.0):
     """(points (N, 3), cells [(type, array)], point data, cell data) of all links at q in
     one grid (:func:`link_grids`, concatenated); cell data ``link_id``: the index of each

@@ -378,3 +378,30 @@ def test_exaggerated_deformation_keeps_the_joints_together():
     # b hangs on a at j2 = 0, turned 0.4 rad: its tip moves (5 - 1) x 0.1 x 0.3 m sideways
     np.testing.assert_allclose(drawn_tip - true_tip, _rz(0.4) @ [0, 4 * 0.1 * 0.3, 0],
                                atol=1e-12)
+
+
+@pytest.mark.render
+def test_a_notebook_gets_the_plotter_and_the_blocks(tmp_path):
+    """machine_plotter is the picture render_machine writes (the same pixels), left open
+    for a notebook; machine_blocks the links by name, as each VTU frame holds them."""
+    from PIL import Image
+
+    from pipeline.post.scene import machine_plotter, render_machine
+    from pipeline.post.vtk_series import link_grids, machine_blocks
+
+    mech, shapes = _machine()
+    q = [0.4, -0.7, 0.3, 0.2]
+    path = render_machine(tmp_path / "m.png", mech, shapes, q, scale=2.0,
+                          window_size=(320, 240)).path
+    plotter = machine_plotter(mech, shapes, q, scale=2.0, window_size=(320, 240))
+    try:
+        image = plotter.screenshot(return_img=True)
+    finally:
+        plotter.close()
+    assert np.array_equal(np.asarray(Image.open(path).convert("RGB")), image[..., :3])
+    blocks = machine_blocks(mech, shapes, q, scale=2.0)
+    assert list(blocks.keys()) == list(shapes)
+    for (name, P, _, data), block in zip(link_grids(mech, shapes, q, 2.0), blocks,
+                                         strict=True):
+        np.testing.assert_array_equal(block.points, P)
+        np.testing.assert_array_equal(block.point_data["displacement"], data["displacement"])
