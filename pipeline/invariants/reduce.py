@@ -212,7 +212,10 @@ def _external_modes(request: LinkRequest, mesh: MeshData, model: FemModel, tied,
 
     g = request.geometry
     where = f"link '{request.name}': modes.file"
-    modes = read_frd(request.modes_file)
+    try:
+        modes = read_frd(request.modes_file)
+    except ConfigError as exc:  # named at the spec's modes.file
+        raise ConfigError(f"{where}: {exc}") from None
     node_of_id = input_node_points(g.path, mesh, g.scale, where)
     basis, W = external_basis(model, tied, request.reference, problem.K, problem.M,
                               problem.space.keep, modes, node_of_id, g.scale,

@@ -135,8 +135,11 @@ def _materials(spec: LinkSpec, geometry) -> tuple:
 
     if not geometry.path.is_file():
         return ()  # the mesh reader says so, at the geometry's line
-    found = read_file_materials(geometry.path, geometry.format, geometry.scale,
-                                MASS_UNITS[spec.geometry.mass_unit or "kg"])
+    try:
+        found = read_file_materials(geometry.path, geometry.format, geometry.scale,
+                                    MASS_UNITS[spec.geometry.mass_unit or "kg"])
+    except ConfigError as exc:  # named at the spec's materials
+        raise ConfigError(f"link {spec.name!r}: materials: {exc}") from None
     return tuple((name, Material(*values)) for name, values in sorted(found.items()))
 
 
