@@ -24,6 +24,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--hdf5", type=Path, metavar="FILE",
                         help="also write the reduced link to FILE in the open HDF5 format "
                              "of docs/hdf5_format.md, for other tools")
+    parser.add_argument("--mesh", type=Path, metavar="FILE",
+                        help="also write the link's FE mesh to FILE (.inp, .msh, .vtu) in "
+                             "its geometry frame, m, for another FE tool")
     parser.add_argument("--convergence", action="store_true",
                         help="also reduce the link on a mesh twice as coarse and print each "
                              "frequency's estimated discretisation error")
@@ -61,6 +64,10 @@ def run(args: argparse.Namespace) -> int:
         from pipeline.invariants.hdf5 import write_hdf5
 
         summary["hdf5"] = str(write_hdf5(link, args.hdf5))
+    if args.mesh is not None:
+        from pipeline.invariants.mesh_export import write_link_mesh
+
+        summary["mesh_file"] = str(write_link_mesh(link, args.mesh))
     if args.render:
         from pipeline.post.render import render_modes
 
@@ -102,6 +109,8 @@ def _print_table(s: dict) -> None:
     t.add_row("artifact", s["artifact"])
     if "hdf5" in s:
         t.add_row("HDF5 export", s["hdf5"])
+    if "mesh_file" in s:
+        t.add_row("FE mesh", s["mesh_file"])
     if "render" in s:
         t.add_row("mode shapes", s["render"])
     con.print(t)

@@ -1,0 +1,82 @@
+"""The FE mesh of a reduced link, written for other FE tools.
+
+A link meshed here can be checked, or carried on, in the FE code a company trusts: its
+solid mesh (the quadratic or linear tetrahedra the reduction used, with their midside
+nodes where they are) goes out through meshio as Abaqus/CalculiX ``.inp``, gmsh ``.msh``
+or ``.vtu``, in the link's geometry frame (the frame its spec is written in)
+and in metres. Read back as ``geometry: {type: mesh, path: ..., units: m}`` with the same
+interfaces, it reduces to the same link (:mod:`pipeline.meshing.imported`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.core.atomic import atomic_path
+from pipeline.core.errors import ConfigError
+from pipeline.invariants.reduced_link import ReducedLink
+
+__all__ = ["MESH_EXPORTS", "write_link_mesh"]
+
+#: file suffix -> meshio format (not Nastran: meshio's writer cannot print a negative
+#: coordinate at full precision in the large field's 16 characters)
+MESH_EXPORTS = {".inp": "abaqus", ".msh": "gmsh", ".vtu": "vtu"}
+
+
+def write_link_mesh(link: ReducedLink, path: str | Path) -> Path:
+    """Write ``link``'s solid mesh to ``path`` (format by suffix, :data:`MESH_EXPORTS`): its
+    nodes in the geometry frame, m, and its tetrahedra (meshio order). Returns the path.
+
+    Raises ConfigError for a beam link (its mesh is line elements with sections, which
+    the import does not take) or an unknown suffix."""
+    import meshio
+
+    path = Path(path)
+    fmt = MESH_EXPORTS.get(path.suffix.lower())
+    if fmt is None:
+        raise ConfigError(f"{path}: a link's mesh is written as {', '.join(MESH_EXPORTS)}, "
+                          f"not {path.suffix or 'a file without a suffix'}")
+    if link.kind != "solid":
+        raise ConfigError(f"link {link.name!r}: only a solid link's mesh is written (a beam's "
+                          "is line elements with sections)")
+    cells = np.asarray(link.cells, dtype=np.int64)
+    kind = {10: "tetra10", 4: "tetra"}.get(cells.shape[1])
+    if kind is None:
+        raise ConfigError(f"link {link.name!r}: cells of {cells.shape[1]} nodes are no "
+                          "tetrahedra")
+    H = np.asarray(link.body_pose, dtype=float)
+    points = link.nodes @ H[:3, :3].T + H[:3, 3]  # body frame -> geometry frame
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp:
+        if fmt == "abaqus":
+            _write_inp(tmp, link.name, points, cells)
+        else:
+            meshio.write(tmp, meshio.Mesh(points, [(kind, cells)]), file_format=fmt)
+    return path
+
+
+def _write_inp(path: Path, name: str, points: np.ndarray, cells: np.ndarray) -> None:
+    """An Abaqus/CalculiX input of the mesh: ``*NODE`` (1-based, each coordinate in the
+    most digits that fit 20 characters: CalculiX reads no more of a field, and meshio's 24
+    would be cut) and ``*ELEMENT`` as C3D10 or C3D4 (meshio's C3D10MH is Abaqus' hybrid
+    element, which CalculiX does not take) in an element set named by the link, for the
+    FE tool's ``*SOLID SECTION``."""
+    kind = "C3D10" if cells.shape[1] == 10 else "C3D4"
+    with open(path, "w") as fh:
+        fh.write(f"*HEADING\nlink {name}: FE mesh, metres\n*NODE, NSET=NALL\n")
+        fh.writelines(f"{i}, " + ", ".join(_field(float(x)) for x in p) + "\n"
+                      for i, p in enumerate(points, start=1))
+        fh.write(f"*ELEMENT, TYPE={kind}, ELSET={name.upper()}\n")
+        fh.writelines(f"{e}, " + ", ".join(map(str, nodes)) + "\n"
+                      for e, nodes in enumerate(cells + 1, start=1))
+
+
+def _field(x: float) -> str:
+    """x in the most significant digits (17 at most) that fit 20 characters."""
+    for digits in range(17, 5, -1):
+        text = f"{x:.{digits}g}"
+        if len(text) <= 20:
+            return text
+    return f"{x:.6g}"
