@@ -348,8 +348,9 @@ def _can_store(skipped: list[str]) -> bool:
     try:
         import pyarrow.parquet  # noqa: F401
     except ImportError:
-        skipped.append(f"exports: {STORE}: needs pyarrow (pip install "
-                       "'flexmech-pipeline[study]')")
+        note = f"exports: {STORE}: needs pyarrow (pip install 'flexmech-pipeline[study]')"
+        logger.warning(note)
+        skipped.append(note)
         return False
     return True
 

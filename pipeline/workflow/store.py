@@ -107,26 +107,29 @@ def write_store(path: Path, rows: list[tuple[str, str, list]], manifest: dict) -
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    cols: dict[str, list] = {k: [] for k in ("analysis", "case", "series", "unit", "k", "t",
-                                             "value")}
+    text = ("analysis", "case", "series", "unit")
+    words: dict[str, dict[str, int]] = {key: {} for key in text}  # the columns' dictionaries
+    codes: dict[str, list] = {key: [] for key in text}
+    numbers: dict[str, list] = {"k": [], "t": [], "value": []}
     for analysis, case, series in rows:
         for name, unit, t, v in series:
             n = len(v)
-            cols["analysis"].append(np.full(n, analysis, dtype=object))
-            cols["case"].append(np.full(n, case, dtype=object))
-            cols["series"].append(np.full(n, name, dtype=object))
-            cols["unit"].append(np.full(n, unit, dtype=object))
-            cols["k"].append(np.arange(n, dtype=np.int64))
-            cols["t"].append(np.asarray(t, dtype=float))
-            cols["value"].append(np.asarray(v, dtype=float))
-    text = pa.dictionary(pa.int32(), pa.string())
-    types = {"analysis": text, "case": text, "series": text, "unit": text, "k": pa.int64(),
-             "t": pa.float64(), "value": pa.float64()}
-    arrays = {}
-    for key, parts in cols.items():
-        joined = np.concatenate(parts) if parts else np.array([], dtype=object)
-        arr = pa.array(joined, type=pa.string() if types[key] is text else types[key])
-        arrays[key] = arr.dictionary_encode() if types[key] is text else arr
+            for key, word in zip(text, (analysis, case, name, unit), strict=True):
+                code = words[key].setdefault(word, len(words[key]))
+                codes[key].append(np.full(n, code, dtype=np.int32))
+            numbers["k"].append(np.arange(n, dtype=np.int64))
+            numbers["t"].append(np.asarray(t, dtype=float))
+            numbers["value"].append(np.asarray(v, dtype=float))
+
+    def joined(parts, dtype):
+        return np.concatenate(parts) if parts else np.zeros(0, dtype=dtype)
+
+    arrays = {key: pa.DictionaryArray.from_arrays(joined(codes[key], np.int32),
+                                                  pa.array(list(words[key]), pa.string()))
+              for key in text}
+    arrays["k"] = pa.array(joined(numbers["k"], np.int64))
+    arrays["t"] = pa.array(joined(numbers["t"], float))
+    arrays["value"] = pa.array(joined(numbers["value"], float))
     meta = {"flexmech": json.dumps({**STORE_FORMAT, "manifest": manifest}, default=str)}
     table = pa.table(arrays).replace_schema_metadata(meta)
     with atomic_path(path) as tmp:
