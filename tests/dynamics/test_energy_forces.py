@@ -4,6 +4,7 @@ flexible double pendulum and a joint spring-damper (potentials and dissipation).
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from eom_models import flexible_double_pendulum
 
 from pipeline.dynamics import System
@@ -24,6 +25,7 @@ def _drift(r):
     return float(np.abs(E - E[0]).max() / np.abs(r.energies["kinetic"]).max())
 
 
+@pytest.mark.slow  # 10 s: kept out of the default run's budget, run by .ci/run
 def test_springs_conserve_and_dampers_close_the_balance():
     spring = SpringDamper("s", ("ground", "body"), ("link2", "C"), stiffness=40.0,
                           free_length=1.0)
