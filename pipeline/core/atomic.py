@@ -3,7 +3,8 @@
 Everything is written to a temporary file in the destination folder and moved
 into place with :func:`os.replace` (atomic on POSIX), so an interrupted run
 leaves either the old file or the new one, never a truncated one. Folders are
-swapped whole (:func:`replace_dir`), under a lock (:func:`folder_lock`).
+swapped whole (:func:`replace_dir`), under a lock (:func:`folder_lock`), and measured by
+what their files hold (:func:`folder_bytes`, for size budgets).
 """
 
 from __future__ import annotations
@@ -84,6 +85,11 @@ def _renameat2_exchange(a: Path, b: Path) -> bool:
     if err in (errno.EINVAL, errno.ENOSYS, errno.ENOTSUP):
         return False
     raise OSError(err, os.strerror(err), str(b))
+
+
+def folder_bytes(folder: str | os.PathLike) -> int:
+    """Bytes of the files in ``folder`` and its subfolders."""
+    return sum(p.stat().st_size for p in Path(folder).rglob("*") if p.is_file())
 
 
 def replace_dir(new: str | os.PathLike, final: str | os.PathLike,

@@ -23,6 +23,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from pipeline.core.atomic import folder_bytes
 from pipeline.core.errors import ArtifactError
 from pipeline.invariants.reduced_link import ReducedLink
 from pipeline.invariants.store import load_reduced_link, read_header, save_reduced_link
@@ -73,7 +74,7 @@ def cache_entries(cache_dir: str | Path) -> list[CacheEntry]:
         npz = folder / f"{m.group('name')}.npz" if m else None
         if npz is None or not npz.is_file() or folder.is_symlink():
             continue
-        size = sum(f.stat().st_size for f in folder.rglob("*") if f.is_file())
+        size = folder_bytes(folder)
         try:
             spec = read_header(npz).get("meta", {}).get("spec_file")
         except ArtifactError:

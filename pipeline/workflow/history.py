@@ -16,6 +16,8 @@ import shutil
 import time
 from pathlib import Path
 
+from pipeline.core.atomic import folder_bytes
+
 logger = logging.getLogger(__name__)
 
 __all__ = ["history_dir", "history_slot", "kept_runs", "prune_history"]
@@ -44,10 +46,6 @@ def history_slot(run_folder: Path) -> Path:
     return slot
 
 
-def _size(folder: Path) -> int:
-    return sum(p.stat().st_size for p in folder.rglob("*") if p.is_file())
-
-
 def kept_runs(run_folder: Path) -> list[Path]:
     """The kept earlier runs of ``run_folder``, newest first."""
     folder = history_dir(run_folder)
@@ -62,7 +60,7 @@ def prune_history(run_folder: Path, runs: int, mb: float | None) -> list[Path]:
     (None: no size budget); returns the removed folders."""
     kept, removed, total = kept_runs(run_folder), [], 0
     for k, p in enumerate(kept):
-        total += _size(p)
+        total += folder_bytes(p)
         if k >= runs or (mb is not None and total > mb * 1e6):
             shutil.rmtree(p, ignore_errors=True)
             removed.append(p)
