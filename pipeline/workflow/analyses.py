@@ -69,6 +69,14 @@ class AnalysisResult:
     def label(self) -> str:
         return self.case or self.name
 
+    @property
+    def has_data(self) -> bool:
+        """Whether it holds the histories its outputs are drawn from (a failed analysis
+        may hold none, or a partial history)."""
+        if len(self.t) == 0:
+            return False
+        return self.type != "linearised" or "frequencies_hz" in self.extra
+
 
 def _times(a) -> np.ndarray:
     return np.linspace(0.0, a.t_end, a.outputs)

@@ -10,10 +10,11 @@ from pathlib import Path
 
 import numpy as np
 
+from pipeline.core.atomic import folder_bytes
 from pipeline.core.errors import ConfigError
 from pipeline.core.progress import stage
 from pipeline.workflow.names import slug
-from pipeline.workflow.series import marker_positions, series
+from pipeline.workflow.series import series
 
 logger = logging.getLogger(__name__)
 
@@ -28,32 +29,41 @@ def _analysis_spec(wf, name):
 
 def export_csv(path: Path, r, mech, markers) -> None:
     """Main histories of one result: time, coordinates, marker positions, actuator forces,
-    energies (one row per output time)."""
+    joint reactions, energies, element states (one row per output time; the store's
+    series, :func:`pipeline.workflow.store.result_series`, under the CSV's column names)."""
+    from pipeline.workflow.store import result_series
+
     cols = {"time_s": r.t}
-    for i, c in enumerate(r.coordinates):
-        cols[c] = r.q[:, i]
-    for link, frame in markers:
-        P = marker_positions(mech, r.q, link, frame)
-        for k, ax in enumerate("xyz"):
-            cols[f"{link}.{frame}.{ax}_m"] = P[:, k]
-    for name, f in r.forces.items():
-        cols[f"force:{name}"] = f
-    reactions = r.extra.get("reactions") or ()
-    if len(reactions) == len(r.t):  # kinetostatic with reactions: true
-        for j, joint in enumerate(reactions[0].joints):
-            for what, unit, k in (("f", "N", 0), ("m", "N m", 1)):
-                V = np.array([(x.force, x.moment)[k][j] for x in reactions])
-                for c, ax in enumerate("xyz"):
-                    cols[f"reaction:{joint}.{what}{ax}_{unit.replace(' ', '')}"] = V[:, c]
-    for name, e in r.energies.items():
-        cols[f"energy:{name}_J"] = e
-    for name, (unit, x) in r.states.items():
-        cols[f"state:{name}_{unit}"] = x
+    for stored, unit, _, values in result_series(r, mech, markers):
+        column = _csv_column(stored, unit)
+        if column is not None:
+            cols[column] = values
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(list(cols))
         for row in zip(*cols.values()):
             w.writerow([f"{float(x):.12g}" for x in row])
+
+
+def _csv_column(series: str, unit: str) -> str | None:
+    """The CSV column of a store series (None: not in the CSV: rates, accelerations, the
+    closure residual, modes): coordinates by name, the unit after the others."""
+    kind, _, rest = series.partition(":")
+    if kind == "q":
+        return rest
+    if kind == "marker":
+        target, axis = rest.rsplit(":", 1)
+        return f"{target}.{axis}_{unit}"
+    if kind == "reaction":
+        joint, component = rest.rsplit(":", 1)
+        return f"reaction:{joint}.{component}_{unit.replace(' ', '')}"
+    if kind == "force":
+        return series
+    if kind == "energy":
+        return f"{series}_J"
+    if kind == "state":
+        return f"{series}_{unit}"
+    return None
 
 
 def export_modes_csv(path: Path, r) -> None:
@@ -97,7 +107,7 @@ def write_exports(folder: Path, wf, machines, results, skipped: list[str]) -> li
         for r in rs:
             mech = machines[r.case].mechanism
             stem = _stem(r)
-            if not has_data(r):
+            if not r.has_data:
                 skipped.append(f"exports: {_why(r)}")
                 continue
             if ex.csv:
@@ -253,7 +263,7 @@ def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
                          style=style)
         return path.name
     r = _pick(rs, rs_spec.case, wf, "outputs", "renders", idx, "case")
-    if not has_data(r):
+    if not r.has_data:
         skipped.append(f"render {rs_spec.name!r}: {_why(r)}")
         return None
     m = machines[r.case]
@@ -289,7 +299,7 @@ def _animate(folder, wf, machines, results, idx, an, skipped) -> str | None:
     from pipeline.post.scene import animate_machine
 
     r = _pick(results[an.analysis], an.case, wf, "outputs", "animations", idx, "case")
-    if not has_data(r):
+    if not r.has_data:
         skipped.append(f"animation {an.name!r}: {_why(r)}")
         return None
     m = machines[r.case]
@@ -323,7 +333,7 @@ def _vtu(folder, machines, results, max_frames: int, budget_mb: float | None) ->
         if peak is not None:
             files.append(str(peak.relative_to(folder)))
         if left is not None:
-            left -= sum(p.stat().st_size for p in sub.rglob("*") if p.is_file())
+            left -= folder_bytes(sub)
         files.append(str(Path(pvd).relative_to(folder)))
     return files
 
@@ -332,7 +342,7 @@ def _convergence(folder, machines, results, c, skipped) -> list[str]:
     from pipeline.post.study_plot import plot_convergence
     from pipeline.workflow.study import convergence, write_convergence_csv
 
-    missing = [r for r in results[c.analysis] if not has_data(r)]
+    missing = [r for r in results[c.analysis] if not r.has_data]
     if missing:
         skipped.append(f"convergence {c.name!r}: " + "; ".join(_why(r) for r in missing))
         return []
@@ -406,18 +416,10 @@ def write_outputs(folder: Path, wf, machines, results, timings: dict,
     return [f for f in files if f is not None]
 
 
-def has_data(r) -> bool:
-    """Whether a result holds the histories its outputs are drawn from (a failed analysis
-    may hold none, or a partial history)."""
-    if len(r.t) == 0:
-        return False
-    return r.type != "linearised" or "frequencies_hz" in r.extra
-
-
 def _with_data(rs: list, output: str, skipped: list[str]) -> list:
     """The results of ``rs`` that hold data; a note in ``skipped`` for each left out."""
-    skipped += [f"{output}: left out: {_why(r)}" for r in rs if not has_data(r)]
-    return [r for r in rs if has_data(r)]
+    skipped += [f"{output}: left out: {_why(r)}" for r in rs if not r.has_data]
+    return [r for r in rs if r.has_data]
 
 
 def _what(r) -> str:

@@ -89,13 +89,11 @@ def result_series(r, mech, markers) -> list[tuple[str, str, np.ndarray, np.ndarr
 
 def run_rows(wf, machines, results) -> list[tuple[str, str, list]]:
     """[(analysis, case, :func:`result_series`)] of a run's results with data."""
-    from pipeline.workflow.outputs import has_data
-
     rows = []
     for name, rs in results.items():
         markers = [tuple(s.split(".", 1)) for s in wf.spec.analysis(name).markers]
         for r in rs:
-            if has_data(r):
+            if r.has_data:
                 rows.append((name, r.case or "",
                              result_series(r, machines[r.case].mechanism, markers)))
     return rows
