@@ -205,6 +205,22 @@ def read_mesh(geometry: MeshFileGeometry, name: str) -> MeshData:
                     source=f"import:{geometry.format}:{path}")
 
 
+def _set_rows(m, dim: int | None = None):
+    """(name, block index, rows) of each of the file's cell sets and gmsh physical groups
+    (of dimension ``dim`` only, where given), block by block; empty ones left out."""
+    for name, per_block in (m.cell_sets or {}).items():
+        for b, idx in enumerate(per_block):
+            if idx is not None and len(idx):
+                yield str(name), b, np.asarray(idx, dtype=np.int64).ravel()
+    physical = (m.cell_data or {}).get("gmsh:physical")
+    if physical is not None and m.field_data:
+        tags = {int(v[0]): n for n, v in m.field_data.items() if dim in (None, int(v[-1]))}
+        for b, phys in enumerate(physical):
+            for tag in np.unique(phys):
+                if int(tag) in tags:
+                    yield tags[int(tag)], b, np.flatnonzero(phys == tag)
+
+
 def _cell_groups(m, blocks, cell: str) -> dict[str, np.ndarray]:
     """Element sets of the solid, by name: the rows of its tetrahedra (the blocks of type
     ``cell`` in file order) that each cell set, gmsh physical volume or Nastran property id
@@ -217,20 +233,11 @@ def _cell_groups(m, blocks, cell: str) -> dict[str, np.ndarray]:
 
     def add(name, b, rows):
         if offsets[b] >= 0 and len(rows):
-            out.setdefault(str(name), []).append(offsets[b] + np.asarray(rows, np.int64))
+            out.setdefault(name, []).append(offsets[b] + rows)
 
-    for name, per_block in (m.cell_sets or {}).items():
-        for b, idx in enumerate(per_block):
-            if idx is not None:
-                add(name, b, np.asarray(idx, dtype=np.int64).ravel())
-    data = m.cell_data or {}
-    if data.get("gmsh:physical") is not None and m.field_data:
-        tags = {int(v[0]): n for n, v in m.field_data.items() if int(v[-1]) == 3}
-        for b, phys in enumerate(data["gmsh:physical"]):
-            for tag in np.unique(phys):
-                if int(tag) in tags:
-                    add(tags[int(tag)], b, np.flatnonzero(phys == tag))
-    for b, pid in enumerate(data.get("nastran:ref") or []):
+    for name, b, rows in _set_rows(m, dim=3):
+        add(name, b, rows)
+    for b, pid in enumerate((m.cell_data or {}).get("nastran:ref") or []):
         for value in np.unique(pid):
             add(f"PID{int(value)}", b, np.flatnonzero(pid == value))
     return {n: np.unique(np.concatenate(rows)) for n, rows in out.items()}
@@ -248,17 +255,8 @@ def _groups(m, blocks, new: np.ndarray, where: str) -> dict[str, np.ndarray]:
 
     for name, idx in (m.point_sets or {}).items():
         add(name, idx)
-    for name, per_block in (m.cell_sets or {}).items():
-        for (_, data), idx in zip(blocks, per_block, strict=False):
-            if idx is not None and len(idx):
-                add(name, data[np.asarray(idx, dtype=np.int64)])
-    physical = (m.cell_data or {}).get("gmsh:physical")
-    if physical is not None and m.field_data:
-        tags = {int(v[0]): n for n, v in m.field_data.items()}
-        for (_, data), phys in zip(blocks, physical, strict=False):
-            for tag in np.unique(phys):
-                if int(tag) in tags:
-                    add(tags[int(tag)], data[phys == tag])
+    for name, b, rows in _set_rows(m):
+        add(name, blocks[b][1][rows])
     empty = sorted(n for n, s in out.items() if not s)
     if empty:
         logger.info("%s: sets %s have no node on the solid", where, empty)
