@@ -250,10 +250,9 @@ def solid_modal_geometric_stiffness(model: FemModel, u: np.ndarray, Phi: np.ndar
     ``int sigma_ij dphi_k/dx_i dpsi_k/dx_j dV`` with sigma the element stress of u at the
     quadrature points (degree-3 rule: exact for straight elements), Phi (n_dof, m)."""
     from pipeline.fem.p2_kernel import ReferenceRule, inverse_and_det
-    from pipeline.fem.stress import cell_lame
 
     cells = np.asarray(model.extras["cells"])
-    lam_e, mu_e = cell_lame(model)
+    lam_e, mu_e = model.extras["cell_materials"].lame  # (e,) each, Pa
     rule = ReferenceRule.of_order(3)
     U = np.asarray(u, dtype=float)[model.node_dofs]  # (N, 3)
     P = np.asarray(Phi, dtype=float)[model.node_dofs]  # (N, 3, m)

@@ -67,17 +67,6 @@ def stress_modes(model: FemModel, U: np.ndarray) -> np.ndarray:
     return solid_nodal_stress(model, U)
 
 
-def cell_lame(model: FemModel) -> tuple[np.ndarray, np.ndarray]:
-    """Each cell's Lame parameters (lambda, mu) (n_cells,), Pa, of a P2 solid model (its
-    ``extras["cell_materials"]``; one material for all where it has none)."""
-    n = len(model.extras["cells"])
-    cells = model.extras.get("cell_materials")
-    if cells is None:
-        lam, mu = model.extras["material"].lame
-        return np.full(n, lam), np.full(n, mu)
-    return cells.lame
-
-
 def _reference_nodes() -> np.ndarray:
     V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
     return np.vstack([V, [(V[i] + V[j]) / 2 for i, j in EDGES]])
@@ -93,7 +82,7 @@ def solid_nodal_stress(model: FemModel, U: np.ndarray, chunk: int = 1024) -> np.
     U = np.asarray(U, dtype=float).reshape(model.n_dof, -1)
     m = U.shape[1]
     cells = np.asarray(model.extras["cells"])  # (e, 10) model node ids, P2 local order
-    lam_e, mu_e = cell_lame(model)
+    lam_e, mu_e = model.extras["cell_materials"].lame  # (e,) each, Pa
     _, dN = p2_shape(_reference_nodes().T)  # (10 points, 10 functions, 3)
     count = np.bincount(cells.ravel(), minlength=model.n_nodes).astype(float)
     total = np.zeros((model.n_nodes, 6 * m))

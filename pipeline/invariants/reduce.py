@@ -183,7 +183,7 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
         info["stress"] = {"unavailable": "the link's K and M came from another FE code as "
                                          "matrices, without its element formulation: no "
                                          "stress modes"}
-    elif "material" not in model.extras and model.kind != "beam":
+    elif file_stress is not None:
         info["stress"] = {"kind": "voigt", "components": list(VOIGT), "units": "Pa, body axes",
                           "recovery": f"the FE code's nodal stresses of its modes "
                                       f"({request.modes_file.name})"}

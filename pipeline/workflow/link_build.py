@@ -75,6 +75,7 @@ def link_request(spec: LinkSpec, base_dir: Path) -> tuple[LinkRequest, tuple[Pat
     g = spec.geometry
     files: tuple[Path, ...] = ()
     budget = None
+    modes_file = None if spec.modes.file is None else (base_dir / spec.modes.file).resolve()
     if g.type == "solid":
         path = None
         if g.path is not None:
@@ -94,9 +95,8 @@ def link_request(spec: LinkSpec, base_dir: Path) -> tuple[LinkRequest, tuple[Pat
                                    mx.mass_unit)
         geometry = MeshFileGeometry(path, g.units, g.expected_mass, matrices)
         files = tuple(p for p in geometry.files() if p.is_file())
-        if spec.modes.file is not None:
-            modes_file = (base_dir / spec.modes.file).resolve()
-            files += (modes_file,) if modes_file.is_file() else ()
+        if modes_file is not None and modes_file.is_file():
+            files += (modes_file,)
     else:
         geometry = BeamGeometry(np.asarray(g.points, float), g.element_size,
                                 tuple(g.vertex_names))
@@ -119,7 +119,7 @@ def link_request(spec: LinkSpec, base_dir: Path) -> tuple[LinkRequest, tuple[Pat
         n_modes=spec.modes.count, f_max=spec.modes.f_max,
         craig_bampton=spec.modes.craig_bampton,
         geometric_stiffening=spec.modes.geometric_stiffening, chord=spec.modes.chord,
-        modes_file=None if spec.modes.file is None else (base_dir / spec.modes.file).resolve(),
+        modes_file=modes_file,
         mesh_budget=budget,
     )
     return request, files
