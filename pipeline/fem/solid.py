@@ -240,6 +240,13 @@ def assemble_solid(mesh: MeshData, material: Material, name: str,
     topo = p2_topology(mesh, where)
     cells = assign_materials(material, materials or {}, mesh.cell_groups, topo.conn.shape[0],
                              where)
+    left = int(np.count_nonzero(cells.index == 0))
+    if materials and left:  # said: a set missing from the spec (or a file's cell in no
+        # section) would otherwise take the link's material unseen
+        logger.warning("%s: %d of %d cells are in none of the element sets given materials "
+                       "(%s); they take the link's material (E %.4g Pa, rho %.4g kg/m^3)",
+                       where, left, cells.index.size, ", ".join(materials), material.E,
+                       material.rho)
     if cells.uniform:
         (lam, mu), rho = material.lame, material.rho
     else:
