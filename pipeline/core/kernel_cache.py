@@ -17,14 +17,15 @@ from pathlib import Path
 
 __all__ = ["KERNEL_MODULES", "check"]
 
-#: every module (relative to the package) that defines cached numba kernels
-KERNEL_MODULES = ("kinematics/compiled.py", "dynamics/compiled.py",
-                  "dynamics/forces/markers.py", "dynamics/forces/springs.py",
-                  "dynamics/forces/loads.py", "dynamics/forces/hydraulics.py",
-                  "dynamics/forces/compiled.py", "dynamics/forces/python_elements.py",
-                  "solver/dae_kernels.py")
-
 _ROOT = Path(__file__).resolve().parents[1]
+
+#: every module (relative to the package) that defines cached numba kernels: every module
+#: of the force-element package, whose kinds the dispatchers are composed from (a new
+#: element module changes the compiled step too)
+KERNEL_MODULES = ("kinematics/compiled.py", "dynamics/compiled.py", "solver/dae_kernels.py",
+                  *sorted(p.relative_to(_ROOT).as_posix()
+                          for p in (_ROOT / "dynamics" / "forces").glob("*.py")))
+
 _checked = False
 
 

@@ -202,15 +202,20 @@ def test_outputs_recorded_inside_a_stretch_equal_those_recorded_step_by_step():
 
 
 def test_every_force_element_class_has_a_compiled_form():
-    """Each element class the workflows offer has a kind, a pack and kernels (a push for
-    a line element, else a force; a potential; rates where it has states), and the kinds
-    are distinct: adding a class without them fails here."""
-    from pipeline.dynamics.forces.base import CompiledElement, LineElement
-    from pipeline.dynamics.forces.compiled import KERNELS
+    """Each element class of the element modules has a kind, a YAML type, a pack and
+    kernels (a push for a line element, else a force; a potential; rates where it has
+    states), and the kinds are distinct: adding a class without them fails here."""
+    import inspect
 
+    from pipeline.dynamics.forces.base import CompiledElement, LineElement
+    from pipeline.dynamics.forces.compiled import KERNELS, element_modules
+
+    defined = {cls for m in element_modules() for _, cls in inspect.getmembers(m, inspect.isclass)
+               if issubclass(cls, CompiledElement) and cls.__module__ == m.__name__}
+    assert len(defined) >= 10 and set(FORCES.values()) == defined
     for name, cls in FORCES.items():
         assert cls.KIND in KERNELS and cls in KERNELS[cls.KIND].classes, name
-        assert issubclass(cls, CompiledElement), name
+        assert vars(cls)["TYPE"] == name
         assert "pack" in vars(cls) or any("pack" in vars(b) for b in cls.__mro__[1:-1]), name
         k = KERNELS[cls.KIND]
         assert k.potential is not None, name
@@ -220,7 +225,7 @@ def test_every_force_element_class_has_a_compiled_form():
         on_coordinate = "coordinate" in {f.name for f in fields(cls)}
         assert k.push is not None or (k.loads is None) == on_coordinate, name
     classes = [c for entry in KERNELS.values() for c in entry.classes]
-    assert len(classes) == len(set(classes)) and set(FORCES.values()) <= set(classes)
+    assert len(classes) == len(set(classes)) and set(FORCES.values()) == set(classes)
 
 
 def _in_python(element):

@@ -49,15 +49,16 @@ their compiled kernels, once.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 
 from pipeline.core.errors import ConfigError
 from pipeline.kinematics.poses import step_pose, step_value
 
-__all__ = ["CompiledElement", "ForceElement", "LineElement", "Load", "MarkerPoint",
-           "check_coordinate", "check_marker", "element_forces", "marker_point", "marker_pose"]
+__all__ = ["CompiledElement", "ForceElement", "Kernels", "LineElement", "Load", "MarkerPoint",
+           "check_coordinate", "check_marker", "element_forces", "marker_point", "marker_pose",
+           "nonnegative"]
 
 
 @dataclass(frozen=True)
@@ -123,6 +124,19 @@ def check_marker(system, marker, name: str, field: str) -> tuple[str, str]:
     link = system.mechanism.links[system.mechanism.link_index(marker[0])]
     link.frame(marker[1])
     return tuple(marker)
+
+
+def nonnegative(value, name: str, field: str) -> float:
+    """``value`` as a finite float >= 0; ConfigError naming element ``name``'s ``field``
+    otherwise."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = float("nan")
+    if isinstance(value, bool) or not np.isfinite(v) or v < 0.0:
+        raise ConfigError(f"force element '{name}': {field}: expected a finite value >= 0, "
+                          f"got {value!r}")
+    return v
 
 
 def check_coordinate(system, coordinate: str, name: str) -> int:
@@ -261,10 +275,39 @@ class CompiledElement(ForceElement):
                                                     float(t), z)
 
 
+class Kernels(NamedTuple):
+    """The compiled form of one element kind, registered by its module in a module-level
+    ``KERNELS`` tuple (:mod:`pipeline.dynamics.forces.compiled` collects them): its element
+    classes (each with the ``KIND`` and the YAML ``TYPE`` of the kind) and its numba
+    kernels, each with one signature for every kind (d the flat ForceData, e the element's
+    row, factor (2F,) the history factors, z (nz,) the elements' states):
+
+    - ``potential(e, q, A, dA, d) -> V`` J of the conservative part;
+    - ``push(e, z, length, rate, factor, d) -> (f, f_nc)`` N, for a line element (its
+      force driving its markers apart, and that force's non-conservative part);
+    - ``force(e, q, v, z, A, dA, factor, d, Q, Qnc)`` adding Q and its non-conservative
+      part, for any other element;
+    - ``loads(e, q, v, z, A, dA, factor, d, rows) -> k`` writing k rows (2, 10) of
+      physical loads (``markers.load_row``), for an element not on a coordinate;
+    - ``rates(e, q, v, z, A, dA, factor, d, zd)`` writing its own states' rates into zd.
+    """
+
+    classes: tuple
+    potential: Any
+    push: Any = None
+    force: Any = None
+    loads: Any = None
+    rates: Any = None
+
+    @property
+    def kind(self) -> int:
+        return self.classes[0].KIND
+
+
 class LineElement(ForceElement):
     """Base of the elements acting along the line from ``marker_a`` to ``marker_b`` (a
     spring-damper, a line force, a hydraulic cylinder): their validation. Their compiled
-    form is a push along the line (:func:`pipeline.dynamics.forces.compiled.line_push`)."""
+    form is a push along the line (:attr:`Kernels.push`)."""
 
     marker_a: tuple[str, str]
     marker_b: tuple[str, str]

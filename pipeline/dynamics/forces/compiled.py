@@ -4,16 +4,19 @@ the physics of every built-in element, once. The compiled step calls the dispatc
 the element classes' methods, statics, linearisation, kinetostatics and the energies
 evaluate the same kernels through :class:`CompiledForces` (``System.compiled_forces``).
 
-Every built-in element class declares its ``KIND`` and ``pack(mech, markers)`` (its rows of
-the flat data), and its module defines its kernels; :data:`KERNELS` names them per kind. A
-line element (its force along the line between two markers) gives its push (the force
-driving the markers apart and its non-conservative part), from which its generalized
-force and loads follow here; any other gives its force and its loads. Each gives its
-potential, and an element with states of its own their rates. A new element kind adds its
-class and kernels in its module, its :data:`KERNELS` entry, and one branch in each
-dispatcher it needs (numba calls compiled functions only by name);
-``tests/solver/test_compiled_step.py`` fails for a built-in element class without them,
-and ``tests/dynamics/test_forces_oracle.py`` compares every kernel with its numpy oracle.
+An element kind lives in one module of this package: its class (a ``KIND`` number, the
+YAML ``TYPE`` name and ``pack(mech, markers)``, its rows of the flat data), its kernels and
+a module-level ``KERNELS`` tuple of :class:`~pipeline.dynamics.forces.base.Kernels`. The
+modules are found here (:func:`element_modules`) and the dispatchers are composed from
+their kernels (numba calls a compiled function only by name, so each dispatcher is a chain
+of small compiled closures, one per kind, that LLVM inlines into the caller); the YAML
+vocabulary :data:`~pipeline.dynamics.forces.FORCES` follows from the same registry.
+Adding a kind touches its own module only (``docs/force_elements.md`` works one through);
+``tests/solver/test_compiled_step.py`` fails for an element class without its compiled
+form, and ``tests/dynamics/test_forces_oracle.py`` compares every kernel with its numpy
+oracle. The on-disk kernel cache is rebuilt when any module of this package changes
+(:mod:`pipeline.core.kernel_cache`).
+
 An element without a compiled form (a user's own class) is packed as
 :data:`~pipeline.dynamics.forces.python_elements.PYTHON_KIND`: the dispatchers call its
 numpy methods back (:mod:`.python_elements`), inside the same compiled step.
@@ -21,68 +24,175 @@ numpy methods back (:mod:`.python_elements`), inside the same compiled step.
 
 from __future__ import annotations
 
+import importlib
+import pkgutil
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 from numba import njit, objmode
 
 from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
-from pipeline.dynamics.forces import hydraulics as H
-from pipeline.dynamics.forces import loads as L
 from pipeline.dynamics.forces import python_elements as P
-from pipeline.dynamics.forces import springs as S
-from pipeline.dynamics.forces.base import ForceElement, Load
+from pipeline.dynamics.forces.base import ForceElement, Kernels, Load
 from pipeline.dynamics.forces.loads import history_value
 from pipeline.dynamics.forces.markers import ForceData, MarkerTable, line_geometry, line_loads
 
 __all__ = ["KERNELS", "CompiledForces", "Kernels", "compile_forces", "element_force",
-           "force_factors", "generalized_forces", "has_kernels", "line_push", "potential",
-           "state_rates", "uncompiled"]
+           "element_modules", "element_types", "force_factors", "generalized_forces",
+           "has_kernels", "line_push", "potential", "state_rates", "uncompiled"]
 
-JOINT_SPRING = S.JointSpringDamper.KIND
-COORDINATE_FORCE = L.JointForce.KIND
-LINE_SPRING = S.SpringDamper.KIND
-POINT_FORCE = L.PointForce.KIND
-TABLE_SPRING = S.TableSpringDamper.KIND
-FOLLOWER_FORCE = L.FollowerForce.KIND
-LINE_FORCE = L.LineForce.KIND
-TORQUE = L.Torque.KIND
-HYDRAULIC_CYLINDER = H.HydraulicCylinder.KIND
 PYTHON_KIND = P.PYTHON_KIND
+_PACKAGE = "pipeline.dynamics.forces"
+#: the most kinds the dispatchers hold (a registry of more is refused at import)
+MAX_KINDS = 24
 
 
-class Kernels(NamedTuple):
-    """The compiled form of one kind: its element classes and kernels (module docstring):
-    ``push`` for a line element, ``force`` and ``loads`` (None: acts on a coordinate, no
-    loads of its own) for any other; ``rates`` for an element with states of its own."""
+def element_modules() -> tuple:
+    """The modules of :mod:`pipeline.dynamics.forces` that register element kinds (a
+    module-level ``KERNELS`` tuple of :class:`Kernels`), by name."""
+    package = importlib.import_module(_PACKAGE)
+    found = []
+    for info in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
+        if info.name == "compiled":
+            continue
+        module = importlib.import_module(f"{_PACKAGE}.{info.name}")
+        if isinstance(getattr(module, "KERNELS", None), tuple):
+            found.append(module)
+    return tuple(found)
 
-    classes: tuple
-    potential: Any
-    push: Any = None
-    force: Any = None
-    loads: Any = None
-    rates: Any = None
+
+def _registry(modules) -> dict:
+    """kind -> :class:`Kernels` of the modules' kinds; TypeError for a registration that
+    cannot work (a kind or YAML type twice, a class without its own TYPE, a term missing)."""
+    out, types = {}, {}
+    for module in modules:
+        for k in module.KERNELS:
+            where = f"{module.__name__}.KERNELS"
+            if not isinstance(k, Kernels) or not k.classes:
+                raise TypeError(f"{where}: expected Kernels((classes...), potential, ...)")
+            if not isinstance(k.kind, int) or k.kind < 0 or k.kind in out:
+                raise TypeError(f"{where}: kind {k.kind!r} of {k.classes[0].__name__} is "
+                                "taken or not an integer >= 0; give the class a KIND of its own")
+            if k.potential is None or (k.push is None) == (k.force is None):
+                raise TypeError(f"{where}: {k.classes[0].__name__} needs a potential and "
+                                "either a push (a line element) or a force")
+            for cls in k.classes:
+                name = vars(cls).get("TYPE")
+                if not isinstance(name, str) or name in types or cls.KIND != k.kind:
+                    raise TypeError(f"{where}: {cls.__name__} needs a TYPE of its own (got "
+                                    f"{name!r}) and KIND {k.kind}")
+                types[name] = cls
+            out[k.kind] = k
+    if len(out) > MAX_KINDS:
+        raise TypeError(f"{len(out)} element kinds registered: the dispatchers hold "
+                        f"{MAX_KINDS} (raise MAX_KINDS in {__name__} and add its slots)")
+    return out
 
 
-#: kind -> its :class:`Kernels`
-KERNELS = {
-    JOINT_SPRING: Kernels((S.JointSpringDamper,), S.joint_spring_potential,
-                          force=S.joint_spring_force),
-    COORDINATE_FORCE: Kernels((L.JointForce, L.ForceCylinder), L.coordinate_potential,
-                              force=L.coordinate_force),
-    LINE_SPRING: Kernels((S.SpringDamper,), S.line_spring_potential, push=S.line_spring_push),
-    POINT_FORCE: Kernels((L.PointForce,), L.point_potential, force=L.point_force,
-                         loads=L.point_loads),
-    TABLE_SPRING: Kernels((S.TableSpringDamper,), S.table_spring_potential,
-                          push=S.table_spring_push),
-    FOLLOWER_FORCE: Kernels((L.FollowerForce,), L.no_potential, force=L.follower_force,
-                            loads=L.follower_loads),
-    LINE_FORCE: Kernels((L.LineForce,), L.line_potential, push=L.line_force_push),
-    TORQUE: Kernels((L.Torque,), L.no_potential, force=L.torque, loads=L.torque_loads),
-    HYDRAULIC_CYLINDER: Kernels((H.HydraulicCylinder,), L.no_potential, push=H.cylinder_push,
-                                rates=H.cylinder_rates),
-}
+#: kind -> its :class:`Kernels`, from every element module
+KERNELS = _registry(element_modules())
+
+
+def element_types() -> dict:
+    """YAML ``type:`` -> element class, of every registered class."""
+    return {vars(c)["TYPE"]: c for k in KERNELS.values() for c in k.classes}
+
+
+# ---------------------------------------------------------------- composed dispatchers
+def _dispatcher(term: str, default):
+    """A compiled ``(kind, *args)`` calling ``term``'s kernel of that kind with args, and
+    returning ``default`` for a kind without one.
+
+    One flat function per term with a slot per kind (unused slots hold a kind no element
+    has): numba calls a compiled function only by name, and a chain of one compiled
+    closure per kind gave the same code but took the main job's first run 30 s more CPU
+    to compile (146 s against 113 s)."""
+    @njit
+    def unused(*args):
+        return default
+
+    entries = [(int(kind), getattr(k, term)) for kind, k in KERNELS.items()
+               if getattr(k, term) is not None]
+    entries += [(-2, unused)] * (MAX_KINDS - len(entries))
+    (k0, k1, k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, k12, k13, k14, k15, k16, k17, k18,
+     k19, k20, k21, k22, k23) = [k for k, _ in entries]
+    (f0, f1, f2, f3, f4, f5, f6, f7, f8, f9, f10, f11, f12, f13, f14, f15, f16, f17, f18,
+     f19, f20, f21, f22, f23) = [f for _, f in entries]
+
+    @njit
+    def dispatch(kind, *args):
+        if kind == k0:
+            return f0(*args)
+        if kind == k1:
+            return f1(*args)
+        if kind == k2:
+            return f2(*args)
+        if kind == k3:
+            return f3(*args)
+        if kind == k4:
+            return f4(*args)
+        if kind == k5:
+            return f5(*args)
+        if kind == k6:
+            return f6(*args)
+        if kind == k7:
+            return f7(*args)
+        if kind == k8:
+            return f8(*args)
+        if kind == k9:
+            return f9(*args)
+        if kind == k10:
+            return f10(*args)
+        if kind == k11:
+            return f11(*args)
+        if kind == k12:
+            return f12(*args)
+        if kind == k13:
+            return f13(*args)
+        if kind == k14:
+            return f14(*args)
+        if kind == k15:
+            return f15(*args)
+        if kind == k16:
+            return f16(*args)
+        if kind == k17:
+            return f17(*args)
+        if kind == k18:
+            return f18(*args)
+        if kind == k19:
+            return f19(*args)
+        if kind == k20:
+            return f20(*args)
+        if kind == k21:
+            return f21(*args)
+        if kind == k22:
+            return f22(*args)
+        if kind == k23:
+            return f23(*args)
+        return default
+    return dispatch
+
+
+def _member(kinds):
+    """A compiled ``(kind) -> bool``: is kind among ``kinds``?"""
+    members = tuple(int(k) for k in kinds)
+
+    @njit
+    def test(kind):
+        for k in members:
+            if kind == k:
+                return True
+        return False
+    return test
+
+
+_push = _dispatcher("push", (np.nan, np.nan))
+_force = _dispatcher("force", None)
+_potential = _dispatcher("potential", 0.0)
+_loads = _dispatcher("loads", 0)
+_rates = _dispatcher("rates", None)
+_is_line = _member([kind for kind, k in KERNELS.items() if k.push is not None])
 
 
 def has_kernels(f) -> bool:
@@ -156,7 +266,7 @@ def force_factors(histories: tuple, times: np.ndarray) -> np.ndarray:
             out[:, F + j] = 1.0
         elif h is not None:
             out[:, j] = [history_value(h, float(x), "history") for x in times]
-            if isinstance(h, H.PID) and h.feedforward:
+            if getattr(h, "feedforward", False):  # a controller's reference rate
                 out[:, F + j] = [h.rate(float(x)) for x in times]
     return out
 
@@ -165,22 +275,7 @@ def force_factors(histories: tuple, times: np.ndarray) -> np.ndarray:
 def line_push(e, z, length, rate, factor, d):
     """(push, its non-conservative part), N, of line element e at its length (m) and rate
     (m/s); kind not a line element's: (nan, nan)."""
-    kind = d.kind[e]
-    if kind == LINE_SPRING:
-        return S.line_spring_push(e, length, rate, d)
-    elif kind == TABLE_SPRING:
-        return S.table_spring_push(e, length, rate, d)
-    elif kind == LINE_FORCE:
-        return L.line_force_push(e, factor, d)
-    elif kind == HYDRAULIC_CYLINDER:
-        return H.cylinder_push(e, z, length, rate, d)
-    return np.nan, np.nan
-
-
-@njit(cache=True)
-def _is_line(kind):
-    return kind == LINE_SPRING or kind == TABLE_SPRING or kind == LINE_FORCE \
-        or kind == HYDRAULIC_CYLINDER
+    return _push(d.kind[e], e, z, length, rate, factor, d)
 
 
 @njit(cache=True)
@@ -195,20 +290,12 @@ def element_force(e, q, v, z, A, dA, factor, d, Q, Qnc):
         for i in range(q.shape[0]):
             Q[i] += f * dl[i]
             Qnc[i] += fnc * dl[i]
-    elif kind == JOINT_SPRING:
-        S.joint_spring_force(e, q, v, A, dA, factor, d, Q, Qnc)
-    elif kind == COORDINATE_FORCE:
-        L.coordinate_force(e, q, v, A, dA, factor, d, Q, Qnc)
-    elif kind == POINT_FORCE:
-        L.point_force(e, q, v, A, dA, factor, d, Q, Qnc)
-    elif kind == FOLLOWER_FORCE:
-        L.follower_force(e, q, v, A, dA, factor, d, Q, Qnc)
-    elif kind == TORQUE:
-        L.torque(e, q, v, A, dA, factor, d, Q, Qnc)
     elif kind == PYTHON_KIND:
         key, t = d.ints[e, 0], factor[e]
         with objmode():
             P.element_force(key, q, v, z, A, dA, t, Q, Qnc)
+    else:
+        _force(kind, e, q, v, z, A, dA, factor, d, Q, Qnc)
 
 
 @njit(cache=True)
@@ -222,12 +309,13 @@ def generalized_forces(q, v, z, A, dA, factor, d, Q, Qnc):
 @njit(cache=True)
 def element_rates(e, q, v, z, A, dA, factor, d, zd):
     """Write the rates of element e's own states into zd (nz,) at (q, v, z)."""
-    if d.kind[e] == HYDRAULIC_CYLINDER:
-        H.cylinder_rates(e, q, v, z, A, dA, factor, d, zd)
-    elif d.kind[e] == PYTHON_KIND and d.ints[e, 4] >= 0:
-        key, t = d.ints[e, 0], factor[e]
-        with objmode():
-            P.element_rates(key, q, v, z, A, dA, t, zd)
+    if d.kind[e] == PYTHON_KIND:
+        if d.ints[e, 4] >= 0:
+            key, t = d.ints[e, 0], factor[e]
+            with objmode():
+                P.element_rates(key, q, v, z, A, dA, t, zd)
+    else:
+        _rates(d.kind[e], e, q, v, z, A, dA, factor, d, zd)
 
 
 @njit(cache=True)
@@ -241,24 +329,12 @@ def state_rates(q, v, z, A, dA, factor, d, zd):
 def element_potential(e, q, A, dA, d):
     """Potential energy (J) of element e's conservative part."""
     kind = d.kind[e]
-    if kind == JOINT_SPRING:
-        return S.joint_spring_potential(e, q, A, dA, d)
-    elif kind == COORDINATE_FORCE:
-        return L.coordinate_potential(e, q, A, dA, d)
-    elif kind == LINE_SPRING:
-        return S.line_spring_potential(e, q, A, dA, d)
-    elif kind == POINT_FORCE:
-        return L.point_potential(e, q, A, dA, d)
-    elif kind == TABLE_SPRING:
-        return S.table_spring_potential(e, q, A, dA, d)
-    elif kind == LINE_FORCE:
-        return L.line_potential(e, q, A, dA, d)
-    elif kind == PYTHON_KIND:
+    if kind == PYTHON_KIND:
         key = d.ints[e, 0]
         with objmode(x="float64"):
             x = P.element_potential(key, q, A, dA)
         return x
-    return 0.0
+    return _potential(kind, e, q, A, dA, d)
 
 
 @njit(cache=True)
@@ -279,13 +355,9 @@ def element_loads(e, q, v, z, A, dA, factor, d, rows):
         length, dl = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
         f, _ = line_push(e, z, length, dl @ v, factor, d)
         return line_loads(d.ints[e, 0], d.ints[e, 1], f, q, A, dA, d, rows)
-    elif kind == POINT_FORCE:
-        return L.point_loads(e, q, A, dA, factor, d, rows)
-    elif kind == FOLLOWER_FORCE:
-        return L.follower_loads(e, q, A, dA, factor, d, rows)
-    elif kind == TORQUE:
-        return L.torque_loads(e, q, A, dA, factor, d, rows)
-    return 0
+    elif kind == PYTHON_KIND:
+        return 0
+    return _loads(kind, e, q, v, z, A, dA, factor, d, rows)
 
 
 @dataclass(frozen=True, eq=False)

@@ -105,8 +105,8 @@ from numba import njit
 
 from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
 from pipeline.core.errors import ConfigError
-from pipeline.dynamics.forces.base import CompiledElement, LineElement
-from pipeline.dynamics.forces.markers import line_geometry, marker_point
+from pipeline.dynamics.forces.base import CompiledElement, Kernels, LineElement
+from pipeline.dynamics.forces.markers import line_geometry, marker_point, no_potential
 from pipeline.kinematics.marker_names import marker_component
 
 __all__ = ["PID", "CounterbalanceValve", "HydraulicCylinder", "anti_windup_time", "check_gains", "cylinder_push",
@@ -327,6 +327,7 @@ class HydraulicCylinder(CompiledElement, LineElement):
     air_content: float = 0.0
     counterbalance: Any = None
     KIND: ClassVar[int] = 8
+    TYPE: ClassVar[str] = "hydraulic_cylinder"
     HISTORY: ClassVar[str] = "command"
 
     @property
@@ -840,7 +841,7 @@ def pressure_rates(par, length, sd, pa, pb, psup, pc, x, out):
 
 
 @njit(cache=True)
-def cylinder_push(e, z, length, rate, d):
+def cylinder_push(e, z, length, rate, factor, d):
     """(the piston's force pushing the markers apart, N, all of it non-conservative) at
     the element's pressures z[o:o + 2] and its length (m) and rate (m/s)."""
     o = d.ints[e, 4]
@@ -864,3 +865,7 @@ def cylinder_rates(e, q, v, z, A, dA, factor, d, zd):
     # factor: the histories' values, then their rates (compiled.force_factors)
     command_rates(par, factor[e], factor[d.kind.shape[0] + e], length, dl @ v, ym, ymd, q, v,
                   z, d.ints[e, 4], zd)
+
+
+#: the compiled form of this module's kind (:class:`~.base.Kernels`)
+KERNELS = (Kernels((HydraulicCylinder,), no_potential, push=cylinder_push, rates=cylinder_rates),)

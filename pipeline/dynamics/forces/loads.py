@@ -24,6 +24,7 @@ from pipeline.core.errors import ConfigError
 from pipeline.core.validate import validate_array
 from pipeline.dynamics.forces.base import (
     CompiledElement,
+    Kernels,
     LineElement,
     check_coordinate,
     check_marker,
@@ -33,6 +34,7 @@ from pipeline.dynamics.forces.markers import (
     line_geometry,
     load_row,
     marker_frame,
+    no_potential,
 )
 from pipeline.dynamics.forces.markers import (
     marker_point as point_kernel,
@@ -81,6 +83,7 @@ class PointForce(CompiledElement):
     history: Any = None
     #: kind of the compiled form (:mod:`pipeline.dynamics.forces.compiled`)
     KIND: ClassVar[int] = 3
+    TYPE: ClassVar[str] = "point_force"
 
     def __post_init__(self):
         validate_array(self.force, (3,), f"force element '{self.name}': force")
@@ -104,6 +107,7 @@ class FollowerForce(PointForce):
     """Force (3,) N given in the marker frame's axes (turns with the marker)."""
 
     KIND: ClassVar[int] = 5
+    TYPE: ClassVar[str] = "follower_force"
 
     @property
     def conservative(self) -> bool:
@@ -121,6 +125,7 @@ class LineForce(CompiledElement, LineElement):
     force: float
     history: Any = None
     KIND: ClassVar[int] = 6
+    TYPE: ClassVar[str] = "line_force"
 
     def pack(self, mech, markers) -> tuple:
         """(ints, par, table rows or None) of the compiled form."""
@@ -143,6 +148,7 @@ class Torque(CompiledElement):
     follower: bool = False
     history: Any = None
     KIND: ClassVar[int] = 7
+    TYPE: ClassVar[str] = "torque"
 
     def __post_init__(self):
         validate_array(self.torque, (3,), f"force element '{self.name}': torque")
@@ -166,6 +172,7 @@ class JointForce(CompiledElement):
     force: float = 1.0
     history: Any = None
     KIND: ClassVar[int] = 1
+    TYPE: ClassVar[str] = "joint_force"
 
     def pack(self, mech, markers) -> tuple:
         """(ints, par, table rows or None) of the compiled form."""
@@ -185,6 +192,8 @@ class ForceCylinder(JointForce):
     """Force-driven cylinder: force (N, positive extends) along a prismatic joint's
     coordinate with the time history ``history``."""
 
+    TYPE: ClassVar[str] = "force_cylinder"
+
     def validate(self, system) -> None:
         i = check_coordinate(system, self.coordinate, self.name)
         mech = system.mechanism
@@ -203,7 +212,7 @@ class ForceCylinder(JointForce):
 # of each element at the time. The numpy oracle is tests/dynamics/forces_numpy.py.
 
 @njit(cache=True)
-def coordinate_force(e, q, v, A, dA, factor, d, Q, Qnc):
+def coordinate_force(e, q, v, z, A, dA, factor, d, Q, Qnc):
     i = d.ints[e, 0]
     f = d.par[e, 3] * factor[e]
     Q[i] += f
@@ -226,7 +235,7 @@ def _add_along(dp, F, Q, Qnc, conservative):
 
 
 @njit(cache=True)
-def point_force(e, q, v, A, dA, factor, d, Q, Qnc):
+def point_force(e, q, v, z, A, dA, factor, d, Q, Qnc):
     p, dp = np.zeros(3), np.zeros((q.shape[0], 3))
     point_kernel(d.ints[e, 0], q, A, dA, d, p, dp)
     _add_along(dp, factor[e] * d.par[e, 3:6], Q, Qnc, d.conservative[e])
@@ -242,7 +251,7 @@ def point_potential(e, q, A, dA, d):
 
 
 @njit(cache=True)
-def point_loads(e, q, A, dA, factor, d, rows):
+def point_loads(e, q, v, z, A, dA, factor, d, rows):
     """One row: the force (ground axes) at its point. Returns 1."""
     p, dp = np.zeros(3), np.zeros((q.shape[0], 3))
     point_kernel(d.ints[e, 0], q, A, dA, d, p, dp)
@@ -262,21 +271,21 @@ def _follower_vector(e, q, A, dA, factor, d, dp):
 
 
 @njit(cache=True)
-def follower_force(e, q, v, A, dA, factor, d, Q, Qnc):
+def follower_force(e, q, v, z, A, dA, factor, d, Q, Qnc):
     dp = np.zeros((q.shape[0], 3))
     _, F = _follower_vector(e, q, A, dA, factor, d, dp)
     _add_along(dp, F, Q, Qnc, False)
 
 
 @njit(cache=True)
-def follower_loads(e, q, A, dA, factor, d, rows):
+def follower_loads(e, q, v, z, A, dA, factor, d, rows):
     p, F = _follower_vector(e, q, A, dA, factor, d, np.zeros((q.shape[0], 3)))
     load_row(rows[0], d.link[d.ints[e, 0]], p, F, np.zeros(3))
     return 1
 
 
 @njit(cache=True)
-def line_force_push(e, factor, d):
+def line_force_push(e, z, length, rate, factor, d):
     """(f, its non-conservative part): the force pushing the markers apart, N."""
     f = factor[e] * d.par[e, 3]
     return f, 0.0 if d.conservative[e] else f
@@ -302,13 +311,13 @@ def _torque_vector(e, q, A, dA, factor, d, w):
 
 
 @njit(cache=True)
-def torque(e, q, v, A, dA, factor, d, Q, Qnc):
+def torque(e, q, v, z, A, dA, factor, d, Q, Qnc):
     w = np.zeros((q.shape[0], 3))
     _add_along(w, _torque_vector(e, q, A, dA, factor, d, w), Q, Qnc, False)
 
 
 @njit(cache=True)
-def torque_loads(e, q, A, dA, factor, d, rows):
+def torque_loads(e, q, v, z, A, dA, factor, d, rows):
     """One row: the torque on the marker's link (at the marker's origin)."""
     n = q.shape[0]
     T = _torque_vector(e, q, A, dA, factor, d, np.zeros((n, 3)))
@@ -318,6 +327,11 @@ def torque_loads(e, q, A, dA, factor, d, rows):
     return 1
 
 
-@njit(cache=True)
-def no_potential(e, q, A, dA, d):
-    return 0.0
+#: the compiled forms of this module's kinds (:class:`~.base.Kernels`)
+KERNELS = (
+    Kernels((JointForce, ForceCylinder), coordinate_potential, force=coordinate_force),
+    Kernels((PointForce,), point_potential, force=point_force, loads=point_loads),
+    Kernels((FollowerForce,), no_potential, force=follower_force, loads=follower_loads),
+    Kernels((LineForce,), line_potential, push=line_force_push),
+    Kernels((Torque,), no_potential, force=torque, loads=torque_loads),
+)

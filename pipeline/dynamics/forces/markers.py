@@ -22,7 +22,7 @@ from numba import njit
 from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
 
 __all__ = ["ForceData", "MarkerTable", "frame_twist", "line_geometry", "line_loads",
-           "load_row", "marker_frame", "marker_point"]
+           "load_row", "marker_frame", "marker_point", "no_potential"]
 
 #: The force elements of a system, flat (see :func:`pipeline.dynamics.forces.compiled.
 #: compile_forces`): per element its ``kind`` (F,), ``ints`` (F, 5) (markers, coordinate,
@@ -176,3 +176,9 @@ def line_loads(ka, kb, f, q, A, dA, d, rows):
     load_row(rows[0], d.link[ka], pa, -f * u, np.zeros(3))
     load_row(rows[1], d.link[kb], pb, f * u, np.zeros(3))
     return 2
+
+
+@njit(cache=True)
+def no_potential(e, q, A, dA, d):
+    """The potential of an element without a conservative part: 0 J."""
+    return 0.0

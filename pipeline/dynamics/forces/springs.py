@@ -23,18 +23,16 @@ from numba import njit
 from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
 from pipeline.core.errors import ConfigError
 from pipeline.core.validate import validate_array
-from pipeline.dynamics.forces.base import CompiledElement, LineElement, check_coordinate
+from pipeline.dynamics.forces.base import (
+    CompiledElement,
+    Kernels,
+    LineElement,
+    check_coordinate,
+    nonnegative,
+)
 from pipeline.dynamics.forces.markers import line_geometry
 
 __all__ = ["JointSpringDamper", "SpringDamper", "TableSpringDamper"]
-
-
-def _nonneg(value, name: str, field: str) -> float:
-    v = float(value)
-    if not np.isfinite(v) or v < 0.0:
-        raise ConfigError(f"force element '{name}': {field}: expected a finite value >= 0, "
-                          f"got {value!r}")
-    return v
 
 
 @dataclass(frozen=True)
@@ -51,11 +49,12 @@ class SpringDamper(CompiledElement, LineElement):
 
     #: kind of the compiled form (:mod:`pipeline.dynamics.forces.compiled`)
     KIND: ClassVar[int] = 2
+    TYPE: ClassVar[str] = "spring_damper"
 
     def __post_init__(self):
-        _nonneg(self.stiffness, self.name, "stiffness")
-        _nonneg(self.damping, self.name, "damping")
-        _nonneg(self.free_length, self.name, "free_length")
+        nonnegative(self.stiffness, self.name, "stiffness")
+        nonnegative(self.damping, self.name, "damping")
+        nonnegative(self.free_length, self.name, "free_length")
 
     def pack(self, mech, markers) -> tuple:
         """(ints (4,), par (6,), table rows or None) of the compiled form."""
@@ -79,6 +78,7 @@ class TableSpringDamper(SpringDamper):
     deflection: tuple = ()
     force: tuple = ()
     KIND: ClassVar[int] = 4
+    TYPE: ClassVar[str] = "table_spring_damper"
 
     def pack(self, mech, markers) -> tuple:
         """(ints, par, table rows (k, 3): deflection m, tension N, int_x0^x f dx J)."""
@@ -111,10 +111,11 @@ class JointSpringDamper(CompiledElement):
     damping: float = 0.0
 
     KIND: ClassVar[int] = 0
+    TYPE: ClassVar[str] = "joint_spring_damper"
 
     def __post_init__(self):
-        _nonneg(self.stiffness, self.name, "stiffness")
-        _nonneg(self.damping, self.name, "damping")
+        nonnegative(self.stiffness, self.name, "stiffness")
+        nonnegative(self.damping, self.name, "damping")
 
     def pack(self, mech, markers) -> tuple:
         """(ints, par, table rows or None) of the compiled form."""
@@ -137,7 +138,7 @@ class JointSpringDamper(CompiledElement):
 # is tests/dynamics/forces_numpy.py.
 
 @njit(cache=True)
-def joint_spring_force(e, q, v, A, dA, factor, d, Q, Qnc):
+def joint_spring_force(e, q, v, z, A, dA, factor, d, Q, Qnc):
     i = d.ints[e, 0]
     Q[i] += -d.par[e, 0] * (q[i] - d.par[e, 1]) - d.par[e, 2] * v[i]
     Qnc[i] += -d.par[e, 2] * v[i]
@@ -150,7 +151,7 @@ def joint_spring_potential(e, q, A, dA, d):
 
 
 @njit(cache=True)
-def line_spring_push(e, length, rate, d):
+def line_spring_push(e, z, length, rate, factor, d):
     """(-(preload + k (l - l0) + c l'), -c l'): the spring pulls its markers together."""
     damper = d.par[e, 2] * rate
     return -(d.par[e, 3] + d.par[e, 0] * (length - d.par[e, 1]) + damper), -damper
@@ -184,7 +185,7 @@ def _table_integral(d, e, x):
 
 
 @njit(cache=True)
-def table_spring_push(e, length, rate, d):
+def table_spring_push(e, z, length, rate, factor, d):
     """(-(f(l - l0) + c l'), -c l') with f from the table."""
     x = length - d.par[e, 1]
     r, slope = _table_segment(d, e, x)
@@ -196,3 +197,11 @@ def table_spring_push(e, length, rate, d):
 def table_spring_potential(e, q, A, dA, d):
     length, _ = line_geometry(d.ints[e, 0], d.ints[e, 1], q, A, dA, d)
     return _table_integral(d, e, length - d.par[e, 1]) - _table_integral(d, e, 0.0)
+
+
+#: the compiled forms of this module's kinds (:class:`~.base.Kernels`)
+KERNELS = (
+    Kernels((JointSpringDamper,), joint_spring_potential, force=joint_spring_force),
+    Kernels((SpringDamper,), line_spring_potential, push=line_spring_push),
+    Kernels((TableSpringDamper,), table_spring_potential, push=table_spring_push),
+)
