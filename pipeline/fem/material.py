@@ -139,6 +139,20 @@ class CellMaterials:
         return len(self.materials) == 1
 
 
+def _element_set(name: str, cell_groups: Mapping[str, np.ndarray], where: str):
+    """The cells (int array) of element set ``name``, or None if the mesh has none of that
+    name. Matched exactly, else regardless of case (Abaqus and CalculiX names are: a
+    ``*SOLID SECTION, ELSET=steel`` means the ``*ELSET, ELSET=STEEL``); two sets that differ
+    only in case are not guessed between."""
+    if name in cell_groups:
+        return np.asarray(cell_groups[name], dtype=np.int64)
+    alike = sorted(n for n in cell_groups if n.casefold() == name.casefold())
+    if len(alike) > 1:
+        raise ConfigError(f"{where}: materials.{name}: the mesh has element sets {alike}, "
+                          "which differ only in case: name one exactly")
+    return np.asarray(cell_groups[alike[0]], dtype=np.int64) if alike else None
+
+
 def assign_materials(material: Material, materials: Mapping[str, Material],
                      cell_groups: Mapping[str, np.ndarray], n_cells: int,
                      where: str) -> CellMaterials:
@@ -163,7 +177,8 @@ def assign_materials(material: Material, materials: Mapping[str, Material],
     given_by: dict[int, str] = {}
     for k, (name, mat) in enumerate(materials.items(), start=1):
         own.append(check_material(mat, f"{where}: materials.{name}"))
-        if name not in cell_groups:
+        cells = _element_set(name, cell_groups, where)
+        if cells is None:
             known = sorted(cell_groups)
             raise ConfigError(
                 f"{where}: materials.{name}: the mesh has no element set {name!r} "
@@ -171,7 +186,6 @@ def assign_materials(material: Material, materials: Mapping[str, Material],
                    "(it has no element sets: materials by element set need a mesh file that "
                    "names them: Abaqus ELSET, gmsh physical volumes, Nastran property ids "
                    "PID<n>)"))
-        cells = np.asarray(cell_groups[name], dtype=np.int64)
         if cells.size and (cells.min() < 0 or cells.max() >= n_cells):
             raise ConfigError(f"{where}: materials.{name}: element set {name!r} names cells "
                               f"outside the solid's {n_cells}")

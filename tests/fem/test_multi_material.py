@@ -127,3 +127,20 @@ def test_materials_of_unknown_or_clashing_sets_are_refused():
                                                          "ALL": groups["FAR"]})
     with pytest.raises(ConfigError, match=r"materials\.FAR: material\.nu"):
         _bar(materials={"FAR": Material(70e9, 0.5, 2700.0)})
+
+
+def test_element_set_names_match_regardless_of_case_as_in_abaqus():
+    """Abaqus and CalculiX names are case-insensitive: a ``*SOLID SECTION, ELSET=far`` (or
+    a spec's ``materials: {far: ...}``) means the file's ``*ELSET, ELSET=FAR``; an exact name
+    wins, and two sets that differ only in case are not guessed between."""
+    from pipeline.fem.material import assign_materials
+
+    steel = Material(210e9, 0.3, 7850.0)
+    groups = {"FAR": np.array([2, 3]), "NEAR": np.array([0, 1])}
+    cm = assign_materials(steel, {"far": LIGHT}, groups, 4, "link 'bar'")
+    assert cm.index.tolist() == [0, 0, 1, 1] and cm.names == ("material", "far")
+    exact = assign_materials(steel, {"far": LIGHT}, {**groups, "far": np.array([0])}, 4, "x")
+    assert exact.index.tolist() == [1, 0, 0, 0]
+    with pytest.raises(ConfigError, match=r"materials\.Far: the mesh has element sets "
+                                          r"\['FAR', 'far'\], which differ only in case"):
+        assign_materials(steel, {"Far": LIGHT}, {**groups, "far": np.array([0])}, 4, "x")
