@@ -4,7 +4,8 @@ stated factor); rigid links are grey. pyvista is imported inside the functions."
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections import OrderedDict
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -24,11 +25,44 @@ def link_poses(mech, q) -> np.ndarray:
 
 def drawn_configuration(mech, q, scale: float) -> np.ndarray:
     """q (n,) with every modal coordinate multiplied by ``scale``: the configuration whose
-    link poses draw a deformation exaggerated ``scale`` times along the whole chain, so
-    that a link hanging on a flexible one stays on its (magnified) tip."""
+    link poses (with :func:`drawing_mechanism`) draw a deformation exaggerated ``scale``
+    times along the whole chain, so that a link hanging on a flexible one stays on its
+    (magnified) tip."""
     q = np.array(coordinate_vector(q, mech.n), dtype=float)
     q[mech.modal_coordinates] *= scale
     return q
+
+
+_DRAWING: OrderedDict = OrderedDict()  # (id(mech), scale) -> (mech, its drawing mechanism)
+
+
+def drawing_mechanism(mech, scale: float):
+    """``mech`` with every frame's second-order translation (the foreshortening of a bent
+    link, ``Frame.hess``) divided by ``scale``: posed at :func:`drawn_configuration`, its
+    frames then move by ``scale`` times their true elastic displacement, second-order part
+    included, as the links' own fields are drawn. With the true second-order terms the
+    magnified amplitudes would draw the foreshortening scale^2 times: at x20 the main job's
+    lower bar hung 4 cm (drawn) off the upper bar's tip. ``mech`` itself for scale 0 or 1
+    or a machine without second-order terms."""
+    if scale in (0.0, 1.0) or not any(f.hess is not None for lk in mech.links
+                                       for f in lk.frames):
+        return mech
+    key = (id(mech), float(scale))
+    if key not in _DRAWING:
+        from pipeline.kinematics import build_mechanism
+
+        links = [replace(lk, frames=tuple(f if f.hess is None else replace(f, hess=f.hess / scale)
+                                          for f in lk.frames)) for lk in mech.links]
+        _DRAWING[key] = (mech, build_mechanism(links, mech.joints, mech.ground))
+        while len(_DRAWING) > 8:  # a few machines and scales are drawn at a time
+            _DRAWING.popitem(last=False)
+    return _DRAWING[key][1]
+
+
+def drawn_poses(mech, q, scale: float) -> np.ndarray:
+    """(n_links, 4, 4) the link poses that draw q's deformation ``scale`` times along the
+    whole chain (:func:`drawn_configuration` on :func:`drawing_mechanism`)."""
+    return link_poses(drawing_mechanism(mech, scale), drawn_configuration(mech, q, scale))
 
 
 def posed_points(mech, shape, q, scale: float = 1.0, poses=None) -> tuple[np.ndarray, np.ndarray]:
@@ -38,13 +72,12 @@ def posed_points(mech, shape, q, scale: float = 1.0, poses=None) -> tuple[np.nda
     :func:`drawn_configuration` (every modal coordinate times ``scale``, so the joints of a
     chain stay together) and its own field sum_a u_a eta_a is multiplied by ``scale``;
     ``scale`` 1 is the true configuration. The magnitude is the true (unscaled) elastic
-    displacement. ``poses``: :func:`link_poses` at :func:`drawn_configuration`, when
-    several links are drawn at the same q.
+    displacement. ``poses``: :func:`drawn_poses` at q, when several links are drawn at the
+    same q.
     """
     q = coordinate_vector(q, mech.n)
     li = mech.link_index(shape.link)
-    A = (link_poses(mech, drawn_configuration(mech, q, scale)) if poses is None
-         else poses)[li]
+    A = (drawn_poses(mech, q, scale) if poses is None else poses)[li]
     return _placed(shape.points, shape.modes, A, q[mech.modal_index[li]], scale)
 
 
@@ -169,12 +202,11 @@ class _Drawn:
         self.update(q)
 
     def update(self, q, poses=None):
-        """Move the actors to q; ``poses``: :func:`link_poses` at
-        ``drawn_configuration(mech, q, scale)`` (computed if None)."""
+        """Move the actors to q; ``poses``: :func:`drawn_poses` at q (computed if None)."""
         q = np.asarray(q, dtype=float)
         scale = 0.0 if self.ghost else self.scale
         if poses is None:
-            poses = link_poses(self.mech, drawn_configuration(self.mech, q, scale))
+            poses = drawn_poses(self.mech, q, scale)
         for shape, X, fields, mesh in self.meshes:
             li = self.mech.link_index(shape.link)
             eta = q[self.mech.modal_index[li]]
@@ -191,7 +223,8 @@ class _Pivots:
         """The joints of the links drawn (``shapes``: their LinkShapes; None: every joint),
         where the links are drawn with their deformation times ``scale``."""
         self.mech, self.scale = mech, scale
-        P, grounded = joint_points(mech, drawn_configuration(mech, q, scale))
+        P, grounded = joint_points(drawing_mechanism(mech, scale),
+                                   drawn_configuration(mech, q, scale))
         self.shown = drawn_joints(mech, shapes)
         P, grounded = P[self.shown], grounded[self.shown]
         self.grounded = grounded
@@ -205,9 +238,9 @@ class _Pivots:
                              render_points_as_spheres=True)
 
     def update(self, q, poses=None):
-        """``poses``: at ``drawn_configuration(mech, q, scale)``, as :meth:`_Drawn.update`."""
-        P = joint_points(self.mech, drawn_configuration(self.mech, q, self.scale),
-                         poses)[0][self.shown]
+        """``poses``: :func:`drawn_poses` at q, as :meth:`_Drawn.update`."""
+        P = joint_points(drawing_mechanism(self.mech, self.scale),
+                         drawn_configuration(self.mech, q, self.scale), poses)[0][self.shown]
         if self.free is not None:
             self.free.points = P[~self.grounded]
         if self.fixed is not None:
@@ -282,10 +315,10 @@ def scene_bounds(mech, shapes, Q, scale) -> np.ndarray:
 def _drawn_points(mech, shapes, q, scale, joints: bool = False) -> list[np.ndarray]:
     """Ground points (m) of every link (and the joints) at q as drawn, the poses computed
     once."""
-    qs = drawn_configuration(mech, q, scale)
-    poses = link_poses(mech, qs)
+    poses = drawn_poses(mech, q, scale)
     out = [posed_points(mech, s, q, scale, poses)[0] for s in shapes.values()]
-    return out + [joint_points(mech, qs, poses)[0]] if joints else out
+    return out + [joint_points(drawing_mechanism(mech, scale),
+                               drawn_configuration(mech, q, scale), poses)[0]] if joints else out
 
 
 def nice_length(x: float) -> float:
@@ -535,7 +568,8 @@ def _machine_plotter(mech, shapes, Q, labels, *, scale, title, camera, ghost_q, 
             _Pivots(plotter, pv, m, q, style, shp, scale)
         bounds = scene_bounds(mech, shapes, Q, scale)
         if style.frames:  # framed with the frames (a marker may sit off its link)
-            drawn = [(m, drawn_configuration(m, q, scale)) for m, _, q in scene]
+            drawn = [(drawing_mechanism(m, scale), drawn_configuration(m, q, scale))
+                     for m, _, q in scene]
             origins = np.array([P[:3, 3] for m, q in drawn for _, P in frame_poses(m, q)])
             if origins.size:
                 bounds = np.column_stack([np.minimum(bounds[:, 0], origins.min(axis=0)),
@@ -613,7 +647,7 @@ def animate_machine(path, mech, shapes, t, Q, *, scale: float = 1.0, fps: int = 
         _camera(plotter, camera, style.up)
         _frame(plotter, bounds, extra)
         for k in picks:
-            poses = link_poses(mech, drawn_configuration(mech, Q[k], scale))
+            poses = drawn_poses(mech, Q[k], scale)
             drawn.update(Q[k], poses)
             pivots.update(Q[k], poses)
             clock.SetInput(f"t = {t[k]:.3f} s")

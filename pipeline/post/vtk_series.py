@@ -11,7 +11,7 @@ import numpy as np
 
 from pipeline.core.atomic import atomic_open, atomic_path
 from pipeline.core.progress import progress_counter
-from pipeline.post.scene import drawn_configuration, link_poses, posed_points
+from pipeline.post.scene import drawn_poses, posed_points
 
 logger = logging.getLogger(__name__)
 
@@ -24,8 +24,8 @@ def link_grids(mech, shapes, q, scale: float = 1.0) -> list[tuple]:
     (ground axes, m; from where the point is with every modal coordinate zero, so a link
     carried by a flexible one shows that too) and its magnitude, and ``von_mises`` (Pa,
     NaN on links without stress modes) when a link has stress modes."""
-    poses = link_poses(mech, drawn_configuration(mech, q, scale))
-    rigid = link_poses(mech, drawn_configuration(mech, q, 0.0))
+    poses = drawn_poses(mech, q, scale)
+    rigid = drawn_poses(mech, q, 0.0)
     stressed = any(s.stress is not None for s in shapes.values())
     out = []
     for name, s in shapes.items():

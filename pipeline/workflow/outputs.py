@@ -258,7 +258,8 @@ def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
         Q = [r.q[-1] for r in rs]
         scale = _scale(rs_spec.scale) or _auto_scale(mechs, shapes, Q)
         render_positions(path, mechs, shapes, Q, [r.case for r in rs], scale=scale,
-                         camera=rs_spec.camera, title=rs_spec.title or f"{wf.name}: {rs[0].name}",
+                         camera=rs_spec.camera,
+                         title=_with_scale(rs_spec.title, scale) or f"{wf.name}: {rs[0].name}",
                          ghost_q=[rigid_configuration(mm, q) for mm, q in zip(mechs, Q)],
                          style=style)
         return path.name
@@ -280,7 +281,7 @@ def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
         ks = [len(r.t) - 1]
     Q = [r.q[k] for k in ks]
     scale = _scale(rs_spec.scale) or _auto_scale(m.mechanism, shapes, Q)
-    title = rs_spec.title or f"{wf.name}: {r.label}"
+    title = _with_scale(rs_spec.title, scale) or f"{wf.name}: {r.label}"
     # the undeformed machine as a wireframe where deformation is the point (static results)
     ghosts = ([rigid_configuration(m.mechanism, q) for q in Q]
               if r.type in ("static", "linearised") else [None] * len(Q))
@@ -293,6 +294,12 @@ def _render(folder, wf, machines, results, idx, rs_spec, skipped) -> str | None:
                          scale=scale, camera=rs_spec.camera, title=title,
                          ghost_q=None if ghosts[0] is None else ghosts, style=style)
     return path.name
+
+
+def _with_scale(title: str | None, scale: float) -> str | None:
+    """A render's title with ``{scale}`` replaced by the magnification drawn (plain text
+    replacement: the title is the user's, never a format string)."""
+    return None if title is None else title.replace("{scale}", f"{scale:g}")
 
 
 def _animate(folder, wf, machines, results, idx, an, skipped) -> str | None:

@@ -499,7 +499,8 @@ class RenderSpec(Strict):
     at: list[float] | None = Field(None, description="output times (s) to show; default: "
                                                      "the last (timed) or every case (static)")
     case: str | None = Field(None, description="case label (default the first)")
-    title: str | None = None
+    title: str | None = Field(None, description="'{scale}' in it is replaced by the "
+                                                "magnification drawn (as --set may change it)")
     color: Literal["displacement", "von_mises"] = Field(
         "displacement", description="colour flexible links by elastic displacement (mm) or "
                                     "von Mises stress (MPa, solid links)")

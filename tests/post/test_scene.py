@@ -380,6 +380,48 @@ def test_exaggerated_deformation_keeps_the_joints_together():
                                atol=1e-12)
 
 
+def test_exaggerated_foreshortening_is_drawn_scale_times_not_scale_squared():
+    """Issue 29: drawn at x20, the main job's lower bar hung 4 cm (drawn) off the upper
+    bar's tip. The tip frame's second-order translation (a bent link's foreshortening,
+    1/2 eta^T H eta) grew with the square of the magnified amplitudes, while the link's
+    own field is drawn linearly. Now the frame moves by ``scale`` times its whole true
+    elastic displacement: the child's root and the drawn joint sit on it at every scale,
+    ``scale`` times the true foreshortening off the linear tip."""
+    from dataclasses import replace
+
+    from pipeline.post.scene import (
+        drawing_mechanism,
+        drawn_configuration,
+        joint_points,
+        posed_points,
+    )
+
+    mech0, shapes = _machine()
+    b = next(lk for lk in mech0.links if lk.name == "b")
+    H = np.zeros((2, 2, 3))
+    H[0, 0, 0] = -0.15  # the tip comes 0.075 eta1^2 m nearer the root along x
+    b = replace(b, frames=tuple(replace(f, hess=H) for f in b.frames))
+    links = [rigid_link("ground"), rigid_link("a", {"B": translation([1.0, 0, 0])}), b,
+             rigid_link("c")]
+    joints = [Joint("j1", "revolute", "ground", "body", "a", "body"),
+              Joint("j2", "revolute", "a", "B", "b", "body"),
+              Joint("j3", "revolute", "b", "tip", "c", "body")]
+    mech = build_mechanism(links, joints)
+    child = LinkShape("c", np.array([[0.0, 0, 0], [0.5, 0, 0]]), None, np.array([[0, 1]]))
+    q = np.zeros(mech.n)
+    q[mech.index("b.eta1")] = 0.3
+    q[mech.index("j1.theta")], q[mech.index("j3.theta")] = 0.4, -0.6
+    shortening = _rz(0.4) @ [0.5 * -0.15 * 0.3 ** 2, 0, 0]  # true, ground axes
+    for scale in (1.0, 5.0, 20.0):
+        tip = posed_points(mech, shapes["b"], q, scale)[0][-1]  # the field: linear
+        root = posed_points(mech, child, q, scale)[0][0]
+        np.testing.assert_allclose(root - tip, scale * shortening, atol=1e-12)
+        pivot = joint_points(drawing_mechanism(mech, scale),
+                             drawn_configuration(mech, q, scale))[0][2]
+        np.testing.assert_allclose(pivot, root, atol=1e-12)
+    assert drawing_mechanism(mech, 1.0) is mech and drawing_mechanism(mech0, 20.0) is mech0
+
+
 @pytest.mark.render
 def test_a_notebook_gets_the_plotter_and_the_blocks(tmp_path):
     """machine_plotter is the picture render_machine writes (the same pixels), left open

@@ -88,3 +88,15 @@ def test_render_changes_only_how_results_are_drawn(tmp_path):
         render_run(folder, (), tmp_path / "links")
     with pytest.raises(ConfigError, match="expected a run's folder holding manifest.json"):
         render_run(tmp_path, (), tmp_path / "links")
+
+
+def test_a_render_title_names_the_magnification_it_is_drawn_at():
+    """A title's ``{scale}`` is the magnification drawn, so a render at another scale
+    (``--set outputs.renders.<name>.scale=20``) does not keep a stale "x5"; the title is
+    plain text, never a format string."""
+    from pipeline.workflow.outputs import _with_scale
+
+    assert _with_scale("drawn x{scale}", 20.0) == "drawn x20"
+    assert _with_scale("drawn x{scale}", 2.5e-3) == "drawn x0.0025"
+    assert _with_scale("{0.__class__} {scale!r} {}", 3.0) == "{0.__class__} {scale!r} {}"
+    assert _with_scale(None, 3.0) is None
