@@ -20,6 +20,13 @@ their outputs over it: a sampled controller without a delay (a discrete-time con
 rhythm). The machine's integration error is estimated and judged as the Simulator's
 (:meth:`Simulator.result`).
 
+Blocks may feed each other: an input named ``block:<name>.<variable>`` reads block
+``<name>``'s output (an FMU's output variable, a sampled PID's ``output``) as it stands
+at t_k, from its step to t_k, before any block steps (Jacobi: the order of the blocks does
+not matter, and a link between blocks holds over one macro step like a sampled line; at
+the initialisation such an input is 0). A controller FMU can so drive a valve or filter
+FMU, whose output drives the machine.
+
 The coupling's own error, the block outputs held over each macro step (first order in
 H), is estimated too (``coupling_error``): the same co-simulation again from the same start
 at H / 2 (fresh block instances, the machine at its own step), compared at the
@@ -48,7 +55,8 @@ from pipeline.core.progress import progress_counter
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["FMU", "SampledPID", "cosimulate", "coupling_estimate", "signal"]
+__all__ = ["BLOCK", "FMU", "SampledPID", "block_names", "cosimulate", "coupling_estimate",
+           "signal"]
 
 
 @dataclass(frozen=True)
@@ -56,12 +64,14 @@ class FMU:
     """An FMU (FMI 2 or 3 co-simulation) in a co-simulation: its file ``path``, its ``inputs``
     ({FMU input variable: the machine's signal}, :func:`signal`), its ``outputs`` ({FMU
     output variable: the Simulator input it drives}) and the start values of its
-    ``parameters`` ({variable: value}, set before its initialisation)."""
+    ``parameters`` ({variable: value}, set before its initialisation); ``name``, by which
+    other blocks read its outputs (``block:<name>.<variable>``; default ``block<k>``)."""
 
     path: str | Path
     inputs: Mapping[str, str] = field(default_factory=dict)
     outputs: Mapping[str, str] = field(default_factory=dict)
     parameters: Mapping[str, float] = field(default_factory=dict)
+    name: str | None = None
 
     @property
     def targets(self) -> tuple[str, ...]:
@@ -87,7 +97,8 @@ class SampledPID:
     (back-calculation, T_t by
     :func:`pipeline.dynamics.forces.hydraulics.anti_windup_time`). ``reference`` r(t): a
     number, a driver or a table (its rate r' feeds ``feedforward`` k_ff). Units: the
-    output's per the measured signal's."""
+    output's per the measured signal's. ``name``: by which other blocks read its output
+    (``block:<name>.output``; default ``block<k>``)."""
 
     measured: str
     output: str
@@ -99,6 +110,7 @@ class SampledPID:
     output_limits: tuple[float, float] | None = None
     tracking_time: float | None = None
     feedforward: float = 0.0
+    name: str | None = None
 
     def __post_init__(self):
         from pipeline.dynamics.forces.hydraulics import check_gains
@@ -143,19 +155,37 @@ class _Sampler:
             raise ConfigError(f"{self.where}: output drives {spec.output!r}, which is not an "
                               f"input of the Simulator (its inputs: {sorted(sim.inputs)}; "
                               "declare it with Simulator(..., inputs=[...]))")
-        signal(sim, spec.measured)  # an unknown signal: ConfigError before anything runs
+        if not spec.measured.startswith(BLOCK):
+            signal(sim, spec.measured)  # an unknown signal: ConfigError before anything runs
         from pipeline.dynamics.forces.hydraulics import anti_windup_time
 
         self.tracking = anti_windup_time(spec.kp, spec.ki, spec.kd, spec.tracking_time)
         self.k, self.x, self.y_last, self.u = 0, 0.0, None, 0.0
 
-    def step(self, sim, t: float, h: float) -> dict[str, float]:
+    @property
+    def reads(self) -> tuple[str, ...]:
+        """The signals it reads."""
+        return (self.spec.measured,)
+
+    def exported(self, names) -> list[str]:
+        """Its output variables among ``names`` that other blocks may read (its ``output``);
+        ConfigError naming the first it does not have."""
+        bad = [x for x in names if x != "output"]
+        if bad:
+            raise ConfigError(f"{self.where}: has no output {bad[0]!r} (a sampled PID's "
+                              "is 'output')")
+        return list(names)
+
+    def outputs_now(self) -> dict[str, float]:
+        return {"output": self.u}
+
+    def step(self, sim, t: float, h: float, linked=None) -> dict[str, float]:
         from pipeline.dynamics.forces.loads import history_rate, history_value
 
         c = self.spec
         if self.k % self.every == 0:  # a sampling instant
             T = c.period
-            y = signal(sim, c.measured)
+            y = _read(sim, c.measured, linked)
             e = history_value(c.reference, t, "sampled PID reference") - y
             dy = 0.0 if self.y_last is None else (y - self.y_last) / T
             v = c.feedforward * history_rate(c.reference, t) + c.kp * e + self.x - c.kd * dy
@@ -169,6 +199,18 @@ class _Sampler:
 
     def close(self) -> None:
         pass
+
+
+#: the prefix of a signal that is another block's output (``block:<name>.<variable>``)
+BLOCK = "block:"
+
+
+def _read(sim, name: str, linked) -> float:
+    """Signal ``name``: another block's output from ``linked`` ({name: value}, the master's
+    reading at the communication point; 0 before it has one), else the machine's."""
+    if name.startswith(BLOCK):
+        return float((linked or {}).get(name, 0.0))
+    return signal(sim, name)
 
 
 def signal(sim, name: str) -> float:
@@ -250,7 +292,11 @@ class _Slave:
                                   f"input of the Simulator (its inputs: {sorted(sim.inputs)}; "
                                   "declare it with Simulator(..., inputs=[...]))")
         for _, name in self.inputs:
-            signal(sim, name)  # an unknown signal: ConfigError before anything runs
+            if not name.startswith(BLOCK):  # (those the master checks against the blocks)
+                signal(sim, name)  # an unknown signal: ConfigError before anything runs
+        self.variables = variables
+        self.export_refs: list = []
+        self.export_names: list = []
         self.folder = extract(str(path))
         self.slave, self.started = None, False
         try:
@@ -283,13 +329,39 @@ class _Slave:
     def _set(self, refs, values) -> None:
         (self.slave.setFloat64 if self.fmi3 else self.slave.setReal)(refs, values)
 
-    def _set_inputs(self, sim) -> None:
+    def _set_inputs(self, sim, linked=None) -> None:
         if self.in_refs:
-            self._set(self.in_refs, [signal(sim, name) for _, name in self.inputs])
+            self._set(self.in_refs, [_read(sim, name, linked) for _, name in self.inputs])
 
-    def step(self, sim, t: float, h: float) -> dict[str, float]:
-        """Its step [t, t + h] on the machine's state at t: {Simulator input: value}."""
-        self._set_inputs(sim)
+    @property
+    def reads(self) -> tuple[str, ...]:
+        """The signals it reads."""
+        return tuple(name for _, name in self.inputs)
+
+    def exported(self, names) -> list[str]:
+        """Make its output variables ``names`` readable by other blocks; ConfigError naming
+        the first that is not a Real output of the FMU."""
+        for name in names:
+            v = self.variables.get(name)
+            if v is None or v.causality != "output" or v.type not in ("Real", "Float64"):
+                outs = sorted(k for k, x in self.variables.items() if x.causality == "output")
+                raise ConfigError(f"{self.where}: has no output {name!r} for another block "
+                                  f"to read (its outputs: {outs})")
+            self.export_names.append(name)
+            self.export_refs.append(v.valueReference)
+        return list(names)
+
+    def outputs_now(self) -> dict[str, float]:
+        """Its exported outputs as they stand (after its last step)."""
+        if not self.export_refs:
+            return {}
+        get = self.slave.getFloat64 if self.fmi3 else self.slave.getReal
+        return {n: float(x) for n, x in zip(self.export_names, get(self.export_refs))}
+
+    def step(self, sim, t: float, h: float, linked=None) -> dict[str, float]:
+        """Its step [t, t + h] on the machine's state at t and the other blocks' outputs
+        ``linked``: {Simulator input: value}."""
+        self._set_inputs(sim, linked)
         try:
             done = self.slave.doStep(currentCommunicationPoint=t, communicationStepSize=h)
         except Exception as exc:  # noqa: BLE001 - fmpy raises on any status but OK
@@ -359,17 +431,22 @@ def _advance(sim, blocks: Sequence, t_end: float, macro_step: float, progress: b
     """The master loop (module docstring) to t_end; the message of a block that failed its
     step, or None."""
     running = []
+    names = block_names(blocks)
     try:
-        for k, spec in enumerate(blocks):
-            running.append(spec.start(sim, sim.t, f"block{k}", macro_step))
+        for name, spec in zip(names, blocks):
+            running.append(spec.start(sim, sim.t, name, macro_step))
+        _wire(running, names)
         count = int(np.ceil((t_end - sim.t) / macro_step - 1e-9))
         with progress_counter(count, what, progress) as advance:
             for k in range(count):
                 t = sim.t
                 h = macro_step if k < count - 1 else t_end - t  # the last one to t_end
+                # every block's outputs at t before any block steps (Jacobi)
+                linked = {f"{BLOCK}{n}.{var}": x for n, b in zip(names, running)
+                          for var, x in b.outputs_now().items()}
                 values = {}
                 for b in running:
-                    values.update(b.step(sim, t, h))
+                    values.update(b.step(sim, t, h, linked))
                 sim.step(h, values)
                 advance(k + 1)
     except _StepFailed as exc:
@@ -378,6 +455,33 @@ def _advance(sim, blocks: Sequence, t_end: float, macro_step: float, progress: b
         for b in running:
             b.close()
     return None
+
+
+def block_names(blocks: Sequence) -> list[str]:
+    """Each block's name (its own, or ``block<k>``); ConfigError for a name given twice."""
+    names = [getattr(b, "name", None) or f"block{k}" for k, b in enumerate(blocks)]
+    twice = sorted({x for x in names if names.count(x) > 1})
+    if twice:
+        raise ConfigError(f"co-simulation: block name(s) {twice} given to more than one block")
+    return names
+
+
+def _wire(running: Sequence, names: Sequence[str]) -> None:
+    """Check every ``block:<name>.<variable>`` a block reads against the blocks and make
+    those outputs readable; ConfigError naming the reader and the signal."""
+    wanted: dict[str, list[str]] = {n: [] for n in names}
+    for b in running:
+        for signal_name in b.reads:
+            if not signal_name.startswith(BLOCK):
+                continue
+            source, dot, var = signal_name[len(BLOCK):].partition(".")
+            if source not in wanted or not dot or not var:
+                raise ConfigError(f"{b.where}: signal {signal_name!r}: expected "
+                                  f"block:<name>.<output> with a block's name ({names})")
+            if var not in wanted[source]:
+                wanted[source].append(var)
+    for name, b in zip(names, running):
+        b.exported(wanted[name])
 
 
 def coupling_estimate(sim, twin, blocks: Sequence, t_end: float, macro_step: float,

@@ -244,16 +244,17 @@ def _cosimulate(m: Machine, system, q0, a, limits, path):
     the communication points (``macro_step``, by default the shortest controller
     period)."""
     from pipeline.kinematics.drivers import driver_from_dict
-    from pipeline.solver.cosim import FMU, SampledPID, cosimulate, signal
+    from pipeline.solver.cosim import BLOCK, FMU, SampledPID, cosimulate, signal
     from pipeline.solver.simulator import Simulator
 
     wf = m.workflow
-    blocks = [FMU(wf.base_dir / f.path, f.inputs, f.outputs, f.parameters) for f in a.fmus]
+    blocks = [FMU(wf.base_dir / f.path, f.inputs, f.outputs, f.parameters, f.name)
+              for f in a.fmus]
     for i, c in enumerate(a.controllers):
         ref = c.reference if not isinstance(c.reference, dict) else driver_from_dict(
             c.reference, wf.where(*path, "controllers", i, "reference"), wf.base_dir)
         blocks.append(SampledPID(c.measured, c.output, ref, c.kp, c.ki, c.kd, c.period,
-                                 c.output_limits, c.tracking_time, c.feedforward))
+                                 c.output_limits, c.tracking_time, c.feedforward, c.name))
     targets = list(dict.fromkeys(x for b in blocks for x in b.targets))
     macro = a.macro_step or min(c.period for c in a.controllers)
     try:
@@ -266,7 +267,8 @@ def _cosimulate(m: Machine, system, q0, a, limits, path):
         raise
     for i, c in enumerate(a.controllers):
         try:
-            signal(sim, c.measured)
+            if not c.measured.startswith(BLOCK):  # (the master checks those)
+                signal(sim, c.measured)
         except ConfigError as exc:
             raise wf.error(*path, "controllers", i, "measured", msg=str(exc)) from None
     return cosimulate(sim, blocks, a.t_end, macro, progress=True, limits=limits,

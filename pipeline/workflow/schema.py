@@ -360,10 +360,13 @@ class FmuSpec(Strict):
     """An FMU (FMI 2 co-simulation) beside the machine (pipeline.solver.cosim)."""
 
     path: str = Field(description="the .fmu file, relative to the workflow's folder")
+    name: str | None = Field(None, description="by which other blocks read its outputs "
+                                               "(block:<name>.<output>)")
     inputs: dict[str, str] = Field(default_factory=dict, description="FMU input variable: "
                                    "the machine's signal (q:<coordinate>, qd:<coordinate>, "
                                    "state:<element>.<state>, marker:<link>.<frame>:x|y|z, "
-                                   "time)")
+                                   "time) or another block's output "
+                                   "(block:<name>.<output>)")
     outputs: dict[str, str] = Field(default_factory=dict, description="FMU output variable: "
                                     "the force element or driven coordinate it drives")
     parameters: dict[str, float] = Field(default_factory=dict, description="start values")
@@ -374,9 +377,12 @@ class ControllerSpec(Strict):
     held (pipeline.solver.cosim.SampledPID)."""
 
     type: Literal["pid"] = "pid"
+    name: str | None = Field(None, description="by which other blocks read its output "
+                                               "(block:<name>.output)")
     measured: str = Field(description="the machine's signal (q:<coordinate>, "
                                       "qd:<coordinate>, state:<element>.<state>, "
-                                      "marker:<link>.<frame>:x|y|z, time)")
+                                      "marker:<link>.<frame>:x|y|z, time) or another "
+                                      "block's output (block:<name>.<output>)")
     output: str = Field(description="the force element it drives (its history; a "
                                     "cylinder's valve command) or a driven coordinate")
     reference: float | dict[str, Any] = Field(description="r(t): a number or a driver")

@@ -173,6 +173,116 @@ def test_an_fmu_that_cannot_start_is_one_line(tmp_path):
         cosimulate(_sim(), [FMU(fmu, {"y": "q:slide.d"}, {"u": "lift"})], 0.1, 5e-3)
 
 
+LAG = '''
+import math
+
+from pythonfmu import Fmi2Causality, Fmi2Slave, Real
+
+
+class Lag(Fmi2Slave):
+    """A first-order lag on a held input: y' = (u - y) / tau, advanced exactly over each
+    step (a valve's or a filter's block, fed by another FMU)."""
+
+    author = "tests"
+    description = "first-order lag"
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.tau = 0.02
+        self.u = 0.0
+        self.y = 0.0
+        self.register_variable(Real("tau", causality=Fmi2Causality.parameter,
+                                    variability="tunable"))
+        self.register_variable(Real("u", causality=Fmi2Causality.input))
+        self.register_variable(Real("y", causality=Fmi2Causality.output))
+
+    def do_step(self, current_time, step_size):
+        self.y = self.u + (self.y - self.u) * math.exp(-step_size / self.tau)
+        return True
+'''
+
+
+@pytest.fixture(scope="module")
+def lag_fmu(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("lag")
+    script = folder / "lag.py"
+    script.write_text(LAG)
+    from pythonfmu import FmuBuilder
+
+    return Path(FmuBuilder.build_FMU(script, dest=folder))
+
+
+def _chain(controller_fmu, lag_fmu, goal, kp, ki, tau, order=(0, 1)):
+    pi = FMU(controller_fmu, {"y": "q:slide.d"}, {}, {"kp": kp, "ki": ki, "r": goal},
+             name="pi")
+    lag = FMU(lag_fmu, {"u": "block:pi.u"}, {"y": "lift"}, {"tau": tau}, name="valve")
+    return [(pi, lag)[k] for k in order]
+
+
+def test_one_fmu_feeds_another_as_the_hand_written_chain(controller_fmu, lag_fmu):
+    """A PI controller FMU drives a lag FMU (the valve's dynamics), whose output drives the
+    machine: against the same two laws around a Simulator by hand, each block reading the
+    other's output as it stood at the communication point (Jacobi; the order of the blocks
+    does not matter)."""
+    goal, kp, ki, tau, H = S0 + 0.04, 30.0, 10.0, 0.02, 5e-3
+    runs = [cosimulate(_sim(), _chain(controller_fmu, lag_fmu, goal, kp, ki, tau, order),
+                       0.6, H, coupling_error=False) for order in ((0, 1), (1, 0))]
+    sim, integral, u, y = _sim(), 0.0, 0.0, 0.0
+    while sim.t < 0.6 - 1e-12:
+        u_seen = u  # the lag reads the controller's output from its step to t_k
+        e = goal - sim.q[0]
+        integral += e * H
+        u = max(-1.0, min(1.0, kp * e + ki * integral))
+        y = u_seen + (y - u_seen) * np.exp(-H / tau)
+        sim.step(H, {"lift": y})
+    ref = sim.result()
+    for r in runs:
+        assert r.verdict == "ok", r.report
+        assert np.abs(r.t - ref.t).max() < 1e-12
+        assert np.abs(r.q - ref.q).max() < 1e-12
+    assert abs(ref.q[-1, 0] - goal) < 3e-3  # the chain took the mass to its goal
+
+
+def test_a_sampled_controller_can_measure_an_fmus_output(controller_fmu, lag_fmu):
+    """A lag FMU filters the stroke; a sampled PID reads the filtered signal and drives the
+    valve: the same run as the PID on the filter written by hand."""
+    from pipeline.solver.cosim import SampledPID
+
+    goal, kp, tau, H = S0 + 0.04, 25.0, 0.01, 5e-3
+    blocks = [FMU(lag_fmu, {"u": "q:slide.d"}, {}, {"tau": tau}, name="filter"),
+              SampledPID("block:filter.y", "lift", goal, kp, period=H, name="pid")]
+    r = cosimulate(_sim(), blocks, 0.4, H, coupling_error=False)
+    sim, yf = _sim(), 0.0
+    while sim.t < 0.4 - 1e-12:
+        seen = yf  # the filter's output at t_k, from its step to t_k
+        yf = sim.q[0] + (yf - sim.q[0]) * np.exp(-H / tau)
+        sim.step(H, {"lift": kp * (goal - seen)})
+    assert np.abs(r.q - sim.result().q).max() < 1e-12
+
+
+@pytest.mark.parametrize("blocks, match", [
+    (lambda c, g: [FMU(c, {"y": "q:slide.d"}, {"u": "lift"}, name="a"),
+                   FMU(g, {"u": "block:b.u"}, {}, name="c")],
+     (r"FMU .*Lag.*: signal 'block:b\.u': expected block:<name>\.<output> with a "
+      r"block's name \(\['a', 'c'\]\)")),
+    (lambda c, g: [FMU(c, {"y": "q:slide.d"}, {"u": "lift"}, name="a"),
+                   FMU(g, {"u": "block:a.y"}, {}, name="c")],
+     (r"FMU .*PIValve.*: has no output 'y' for another block to read \(its outputs: "
+      r"\['u'\]\)")),
+    (lambda c, g: [FMU(c, {"y": "q:slide.d"}, {"u": "lift"}, name="a"),
+                   FMU(g, {"u": "block:a"}, {}, name="c")], r"signal 'block:a': expected"),
+    (lambda c, g: [FMU(c, {"y": "q:slide.d"}, {"u": "lift"}, name="a"),
+                   FMU(g, {"u": "q:slide.d"}, {}, name="a")],
+     r"block name\(s\) \['a'\] given to more than one block"),
+])
+def test_bad_links_between_blocks_are_named_before_anything_runs(controller_fmu, lag_fmu,
+                                                                 blocks, match):
+    sim = _sim()
+    with pytest.raises(ConfigError, match=match):
+        cosimulate(sim, blocks(controller_fmu, lag_fmu), 0.1, 5e-3)
+    assert sim.t == 0.0
+
+
 def test_signals_name_coordinates_rates_states_and_markers():
     sim = _sim()
     sim.step(0.01, {"lift": 0.3})
@@ -335,3 +445,23 @@ def test_an_fmi3_fmu_runs_as_its_fmi2_twin(controller_fmu, controller_fmu3):
     assert three.verdict == "ok", three.report
     assert np.abs(two.q - three.q).max() < 1e-12 and np.abs(two.t - three.t).max() == 0.0
     assert three.q[-1, 0] - S0 > 0.01  # it moved the mass
+
+
+def test_a_workflow_links_its_fmus_by_name_as_the_python_api_does(tmp_path, controller_fmu,
+                                                                  lag_fmu):
+    from pipeline.workflow import run_workflow
+
+    lag = ("      - path: Lag.fmu\n        name: valve\n        inputs: {u: 'block:pi.u'}\n"
+           "        outputs: {y: lift}\n        parameters: {tau: 0.02}\n")
+    path = _workflow(tmp_path, controller_fmu, extra=lag)
+    path.write_text(path.read_text().replace("        outputs: {u: lift}\n",
+                                             "        name: pi\n"))
+    (tmp_path / "Lag.fmu").write_bytes(lag_fmu.read_bytes())
+    r = run_workflow(path, out_root=tmp_path / "out").result("raise", "")
+    ref = cosimulate(_sim(), _chain(controller_fmu, lag_fmu, 0.24, 30.0, 10.0, 0.02),
+                     0.4, 5e-3)
+    assert r.verdict == ref.verdict and np.abs(r.q - ref.q).max() < 1e-12
+    path.write_text(path.read_text().replace("'block:pi.u'", "'block:pid.u'"))
+    with pytest.raises(ConfigError, match=r"lift\.yaml:\d+: analyses\[0\]\.fmus: .*signal "
+                                          r"'block:pid\.u': expected block:<name>"):
+        run_workflow(path, out_root=tmp_path / "out2")
