@@ -274,18 +274,22 @@ class _Slave:
                 if v is None:
                     raise ConfigError(f"{self.where}: {what} {name!r}: no such variable; its "
                                       f"variables: {sorted(variables)}")
-                if v.causality not in causalities or v.type not in ("Real", "Float64"):
-                    raise ConfigError(f"{self.where}: {what} {name!r}: expected a Real of "
-                                      f"causality {' or '.join(causalities)} (FMI 3: a "
-                                      f"Float64), got a {v.type} {v.causality}")
-                out.append(v.valueReference)
+                if v.causality not in causalities or v.type not in _SETTERS:
+                    raise ConfigError(f"{self.where}: {what} {name!r}: expected a number "
+                                      f"(Real, Integer, Boolean; FMI 3: Float64, Float32, "
+                                      f"Int8-64, UInt8-64, Boolean, Enumeration) of causality "
+                                      f"{' or '.join(causalities)}, got a {v.type} "
+                                      f"{v.causality}")
+                out.append(v)
             return out
 
         self.inputs = list(spec.inputs.items())
         self.outputs = list(spec.outputs.items())
-        self.in_refs = refs([k for k, _ in self.inputs], ("input",), "input")
-        self.out_refs = refs([k for k, _ in self.outputs], ("output",), "output")
-        par_refs = refs(list(spec.parameters), ("parameter", "input"), "parameter")
+        self.in_vars = refs([k for k, _ in self.inputs], ("input",), "input")
+        self.out_vars = refs([k for k, _ in self.outputs], ("output",), "output")
+        par_vars = refs(list(spec.parameters), ("parameter", "input"), "parameter")
+        par_values = [_exact(v, x, f"{self.where}: parameter {v.name!r}")
+                      for v, x in zip(par_vars, spec.parameters.values())]
         for _, target in self.outputs:
             if target not in sim.inputs:
                 raise ConfigError(f"{self.where}: output drives {target!r}, which is not an "
@@ -295,7 +299,7 @@ class _Slave:
             if not name.startswith(BLOCK):  # (those the master checks against the blocks)
                 signal(sim, name)  # an unknown signal: ConfigError before anything runs
         self.variables = variables
-        self.export_refs: list = []
+        self.export_vars: list = []
         self.export_names: list = []
         self.folder = extract(str(path))
         self.slave, self.started = None, False
@@ -312,8 +316,8 @@ class _Slave:
                 self.slave.enterInitializationMode(startTime=t0)
             else:
                 self.slave.setupExperiment(startTime=t0)
-            if par_refs:
-                self._set(par_refs, [float(x) for x in spec.parameters.values()])
+            if par_vars:
+                self._set(par_vars, par_values)
             if not self.fmi3:
                 self.slave.enterInitializationMode()
             self._set_inputs(sim)
@@ -326,12 +330,20 @@ class _Slave:
             self.close()
             raise ConfigError(f"{self.where}: could not be started ({exc})") from None
 
-    def _set(self, refs, values) -> None:
-        (self.slave.setFloat64 if self.fmi3 else self.slave.setReal)(refs, values)
+    def _set(self, variables, values) -> None:
+        """Set each variable of ``variables`` to its value (each in its own type)."""
+        for v, x in zip(variables, values):
+            getattr(self.slave, _SETTERS[v.type][self.fmi3])([v.valueReference], [x])
+
+    def _get(self, variables) -> list[float]:
+        """The values of ``variables`` as floats (a Boolean is 1 or 0)."""
+        return [float(getattr(self.slave, _SETTERS[v.type][self.fmi3].replace("set", "get", 1))(
+            [v.valueReference])[0]) for v in variables]
 
     def _set_inputs(self, sim, linked=None) -> None:
-        if self.in_refs:
-            self._set(self.in_refs, [_read(sim, name, linked) for _, name in self.inputs])
+        if self.in_vars:
+            self._set(self.in_vars, [_typed(v, _read(sim, name, linked))
+                                     for v, (_, name) in zip(self.in_vars, self.inputs)])
 
     @property
     def reads(self) -> tuple[str, ...]:
@@ -343,20 +355,17 @@ class _Slave:
         the first that is not a Real output of the FMU."""
         for name in names:
             v = self.variables.get(name)
-            if v is None or v.causality != "output" or v.type not in ("Real", "Float64"):
+            if v is None or v.causality != "output" or v.type not in _SETTERS:
                 outs = sorted(k for k, x in self.variables.items() if x.causality == "output")
                 raise ConfigError(f"{self.where}: has no output {name!r} for another block "
                                   f"to read (its outputs: {outs})")
             self.export_names.append(name)
-            self.export_refs.append(v.valueReference)
+            self.export_vars.append(v)
         return list(names)
 
     def outputs_now(self) -> dict[str, float]:
         """Its exported outputs as they stand (after its last step)."""
-        if not self.export_refs:
-            return {}
-        get = self.slave.getFloat64 if self.fmi3 else self.slave.getReal
-        return {n: float(x) for n, x in zip(self.export_names, get(self.export_refs))}
+        return dict(zip(self.export_names, self._get(self.export_vars)))
 
     def step(self, sim, t: float, h: float, linked=None) -> dict[str, float]:
         """Its step [t, t + h] on the machine's state at t and the other blocks' outputs
@@ -372,9 +381,7 @@ class _Slave:
             if terminate or early:
                 raise _StepFailed(f"{self.where}: its step at t = {t:.6g} s ended at "
                                   f"{reached:.6g} s ({'it asked to terminate' if terminate else 'early return'})")
-        get = self.slave.getFloat64 if self.fmi3 else self.slave.getReal
-        values = get(self.out_refs) if self.out_refs else []
-        return {target: float(x) for (_, target), x in zip(self.outputs, values)}
+        return {target: x for (_, target), x in zip(self.outputs, self._get(self.out_vars))}
 
     def close(self) -> None:
         import shutil
@@ -392,6 +399,40 @@ class _Slave:
 
 class _StepFailed(Exception):
     pass
+
+
+#: an FMU variable's type -> (its FMI 2 setter, its FMI 3 setter); getters likewise
+_SETTERS = {
+    "Real": ("setReal", "setFloat64"), "Integer": ("setInteger", "setInt32"),
+    "Boolean": ("setBoolean", "setBoolean"), "Enumeration": ("setInteger", "setInt64"),
+    "Float64": (None, "setFloat64"), "Float32": (None, "setFloat32"),
+    **{f"{u}Int{b}": (None, f"set{u}Int{b}") for u in ("", "U") for b in (8, 16, 32, 64)},
+}
+_INTEGERS = {"Integer", "Enumeration"} | {f"{u}Int{b}" for u in ("", "U") for b in (8, 16, 32, 64)}
+
+
+def _typed(v, x: float):
+    """The machine's (or a block's) value x for input variable v: a Boolean is true from
+    0.5 up, an integer type takes x rounded to the nearest integer, a float x."""
+    if v.type == "Boolean":
+        return bool(x >= 0.5)
+    if v.type in _INTEGERS:
+        return int(np.rint(x))
+    return float(x)
+
+
+def _exact(v, x, where: str):
+    """A parameter's value x for variable v; ConfigError for a non-integral value of an
+    integer type or a Boolean that is not 0, 1, true or false."""
+    if v.type == "Boolean":
+        if x in (0, 1):  # (True and False among them)
+            return bool(x)
+        raise ConfigError(f"{where}: expected a Boolean (true, false, 0 or 1), got {x!r}")
+    if v.type in _INTEGERS:
+        if isinstance(x, int | float) and not isinstance(x, bool) and float(x).is_integer():
+            return int(x)
+        raise ConfigError(f"{where}: expected an integer (a {v.type}), got {x!r}")
+    return float(x)
 
 
 def cosimulate(sim, blocks: Sequence, t_end: float, macro_step: float,
