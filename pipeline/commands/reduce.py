@@ -25,7 +25,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="also write the reduced link to FILE in the open HDF5 format "
                              "of docs/hdf5_format.md, for other tools")
     parser.add_argument("--mesh", type=Path, metavar="FILE",
-                        help="also write the link's FE mesh to FILE (.inp, .msh, .vtu) in "
+                        help="also write the link's FE mesh to FILE (.inp, .bdf, .msh, .vtu) in "
                              "its geometry frame, m, for another FE tool")
     parser.add_argument("--convergence", action="store_true",
                         help="also reduce the link on a mesh twice as coarse and print each "

@@ -2,9 +2,9 @@
 
 A link meshed here can be checked, or carried on, in the FE code a company trusts: its
 solid mesh (the quadratic or linear tetrahedra the reduction used, with their midside
-nodes where they are) goes out through meshio as Abaqus/CalculiX ``.inp``, gmsh ``.msh``
-or ``.vtu``, in the link's geometry frame (the frame its spec is written in)
-and in metres. Read back as ``geometry: {type: mesh, path: ..., units: m}`` with the same
+nodes where they are) goes out as Abaqus/CalculiX ``.inp`` or Nastran bulk data ``.bdf``
+(both written here) or through meshio as gmsh ``.msh`` or ``.vtu``, in the link's
+geometry frame (the frame its spec is written in) and in metres. Read back as ``geometry: {type: mesh, path: ..., units: m}`` with the same
 interfaces, it reduces to the same link (:mod:`pipeline.meshing.imported`).
 """
 
@@ -20,9 +20,9 @@ from pipeline.invariants.reduced_link import ReducedLink
 
 __all__ = ["MESH_EXPORTS", "write_link_mesh"]
 
-#: file suffix -> meshio format (not Nastran: meshio's writer cannot print a negative
-#: coordinate at full precision in the large field's 16 characters)
-MESH_EXPORTS = {".inp": "abaqus", ".msh": "gmsh", ".vtu": "vtu"}
+#: file suffix -> format (Abaqus and Nastran written here: CalculiX reads 20 characters of
+#: a field, and meshio's Nastran writer cut negative coordinates short of 16)
+MESH_EXPORTS = {".inp": "abaqus", ".bdf": "nastran", ".msh": "gmsh", ".vtu": "vtu"}
 
 
 def write_link_mesh(link: ReducedLink, path: str | Path) -> Path:
@@ -52,6 +52,8 @@ def write_link_mesh(link: ReducedLink, path: str | Path) -> Path:
     with atomic_path(path) as tmp:
         if fmt == "abaqus":
             _write_inp(tmp, link.name, points, cells)
+        elif fmt == "nastran":
+            _write_bdf(tmp, link.name, points, cells)
         else:
             meshio.write(tmp, meshio.Mesh(points, [(kind, cells)]), file_format=fmt)
     return path
@@ -80,3 +82,33 @@ def _field(x: float) -> str:
         if len(text) <= 20:
             return text
     return f"{x:.6g}"
+
+
+def _write_bdf(path: Path, name: str, points: np.ndarray, cells: np.ndarray) -> None:
+    """Nastran bulk data of the mesh: ``GRID*`` in large field (16 characters a coordinate,
+    in the most digits that fit: 12-15) and ``CTETRA`` in small field with a continuation
+    for the midside nodes (Nastran's node order is meshio's), every element of property 1,
+    for the FE tool's ``PSOLID 1`` and ``MAT1`` (the file has no material, as the .inp)."""
+    with open(path, "w") as fh:
+        fh.write(f"$ link {name}: FE mesh, metres; elements of property 1 (add PSOLID 1 and "
+                 "its MAT1)\nBEGIN BULK\n")
+        fh.writelines(f"GRID*   {i:<16d}{'':16}{_large(p[0])}{_large(p[1])}*\n"
+                      f"*       {_large(p[2])}\n" for i, p in enumerate(points, start=1))
+        for e, nodes in enumerate(cells + 1, start=1):
+            head = "".join(f"{k:<8d}" for k in (e, 1, *nodes[:6]))
+            fh.write(f"CTETRA  {head}" + ("+\n+       " + "".join(f"{k:<8d}" for k in nodes[6:])
+                                           if len(nodes) > 6 else "") + "\n")
+        fh.write("ENDDATA\n")
+
+
+def _large(x: float) -> str:
+    """x as a Nastran real in a 16-character field, in the most digits that fit: with a
+    decimal point always, and an exponent written as Nastran's short form (1.25-3)."""
+    for digits in range(16, 5, -1):
+        text = f"{x:#.{digits}g}"
+        if "e" in text:
+            mantissa, exponent = text.split("e")
+            text = f"{mantissa}{int(exponent):+d}"
+        if len(text) <= 16:
+            return f"{text:>16}"
+    raise ValueError(f"{x!r} does not fit a Nastran field")  # (finite coordinates always fit)

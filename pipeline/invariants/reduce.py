@@ -340,8 +340,10 @@ def _marker_interface(model: FemModel, marker: MarkerRequest) -> Interface:
         if nodes.size == 0:
             raise ConfigError(f"{where}: no FE node within its radius {marker.radius:g} m of "
                               f"{position}; the nearest is {d.min():.3g} m away")
-    else:
-        nodes = np.argsort(d)[:12]
+    else:  # the 12 nearest, and every node as near as the 12th: a tie (a symmetric mesh)
+        # is not broken by round-off (a mesh written to 13 digits picked other nodes)
+        near = np.sort(d)[min(11, d.size - 1)]
+        nodes = np.flatnonzero(d <= near + 1e-9 * max(near, 1e-12))
     return make_interface(model, marker.name, marker.position, marker.axes, "rbe3", nodes)
 
 
