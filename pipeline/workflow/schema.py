@@ -357,7 +357,8 @@ class StaticStart(Strict):
 
 
 class FmuSpec(Strict):
-    """An FMU (FMI 2 co-simulation) beside the machine (pipeline.solver.cosim)."""
+    """An FMU (FMI 2 or 3 co-simulation, FMI 3 model exchange) beside the machine
+    (pipeline.solver.cosim)."""
 
     path: str = Field(description="the .fmu file, relative to the workflow's folder")
     name: str | None = Field(None, description="by which other blocks read its outputs "

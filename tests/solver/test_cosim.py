@@ -609,3 +609,105 @@ def test_fmi3_integer_and_boolean_variables_run_as_their_fmi2_twin(tmp_path, ban
     # (a bang-bang valve makes the lift cavitate: both runs say so alike)
     assert three.verdict == two.verdict and three.warnings == two.warnings
     assert np.abs(two.q - three.q).max() < 1e-12 and three.q[-1, 0] - S0 > 0.01
+
+
+LAG_ME = '''
+from pythonfmu3 import (Fmi3Causality, Fmi3Initial, Fmi3SlaveBase, Fmi3Variability, Float64,
+                        ModelExchange)
+
+
+class LagME(Fmi3SlaveBase, ModelExchange):
+    """The first-order lag x' = (u - x) / tau as an FMI 3 model-exchange FMU: its state is
+    integrated by the master."""
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.author = "tests"
+        self.description = "first-order lag (model exchange)"
+        self.time = 0.0
+        self.x = 0.0
+        self.derx = 0.0
+        self.u = 0.0
+        self.tau = 0.02
+        self.register_variable(Float64("time", causality=Fmi3Causality.independent,
+                                       variability=Fmi3Variability.continuous))
+        self.register_variable(Float64("x", causality=Fmi3Causality.output, start=0.0,
+                                       variability=Fmi3Variability.continuous,
+                                       initial=Fmi3Initial.exact))
+        self.register_variable(Float64("derx", causality=Fmi3Causality.local,
+                                       variability=Fmi3Variability.continuous, derivative=1))
+        self.register_variable(Float64("u", causality=Fmi3Causality.input,
+                                       variability=Fmi3Variability.continuous))
+        self.register_variable(Float64("tau", causality=Fmi3Causality.parameter,
+                                       variability=Fmi3Variability.fixed))
+
+    def get_continuous_state_derivatives(self):
+        self.derx = (self.u - self.x) / self.tau
+        return [self.derx]
+'''
+
+
+@pytest.fixture(scope="module")
+def lag_me_fmu(tmp_path_factory):
+    pytest.importorskip("pythonfmu3")
+    from pythonfmu3 import FmuBuilder
+
+    folder = tmp_path_factory.mktemp("lag_me")
+    script = folder / "lag_me.py"
+    script.write_text(LAG_ME)
+    return Path(FmuBuilder.build_FMU(script, dest=folder, needsExecutionTool="false"))
+
+
+def _edited(fmu: Path, folder: Path, old: str, new: str) -> Path:
+    """A copy of ``fmu`` whose modelDescription.xml has ``old`` replaced by ``new``."""
+    import re
+    import zipfile
+
+    out = folder / f"edited_{fmu.name}"
+    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(out, "w") as dst:
+        for item in src.infolist():
+            data = src.read(item)
+            if item.filename == "modelDescription.xml":
+                text = data.decode()
+                assert re.search(old, text), old
+                data = re.sub(old, new, text).encode()
+            dst.writestr(item, data)
+    return out
+
+
+def test_a_model_exchange_fmu_is_integrated_beside_the_machine(lag_me_fmu):
+    """An FMI 3 model-exchange lag FMU filters the stroke (its state integrated here over
+    each macro step, the input held); a sampled PID reads its output: the run of the exact
+    lag by hand, to the integration's tolerance."""
+    from pipeline.solver.cosim import SampledPID
+
+    fmu = lag_me_fmu
+    goal, kp, tau, H = S0 + 0.04, 25.0, 0.01, 5e-3
+    blocks = [FMU(fmu, {"u": "q:slide.d"}, {}, {"tau": tau}, name="filter"),
+              SampledPID("block:filter.x", "lift", goal, kp, period=H, name="pid")]
+    r = cosimulate(_sim(), blocks, 0.4, H, coupling_error=False)
+    sim, yf = _sim(), S0 * 0.0
+    while sim.t < 0.4 - 1e-12:
+        seen = yf
+        yf = sim.q[0] + (yf - sim.q[0]) * np.exp(-H / tau)
+        sim.step(H, {"lift": kp * (goal - seen)})
+    print("model exchange against the exact lag:", np.abs(r.q - sim.result().q).max())
+    assert np.abs(r.q - sim.result().q).max() < 1e-8
+    assert r.q[-1, 0] - S0 > 0.01
+
+
+def test_what_model_exchange_is_not_run_is_said_in_one_line(tmp_path, lag_me_fmu,
+                                                             controller_fmu):
+    """A model-exchange FMU with state events (event indicators), and an FMI 2 one: one
+    line each, before anything runs."""
+    events = _edited(lag_me_fmu, tmp_path, r"(<InitialUnknown [^>]*/>)",
+                     r'\1<EventIndicator valueReference="1"/>')
+    with pytest.raises(ConfigError, match=r"a model-exchange FMU with 1 event indicator\(s\): "
+                                          r"its state events are not handled here"):
+        cosimulate(_sim(), [FMU(events, {"u": "q:slide.d"})], 0.1, 5e-3)
+    fmi2 = _edited(controller_fmu, tmp_path, r"<CoSimulation[^>]*?(/>|>.*?</CoSimulation>)",
+                   '<ModelExchange modelIdentifier="PIValve"/>')
+    with pytest.raises(ConfigError, match=r"has no co-simulation interface \(FMI 2 model "
+                                          r"exchange only\); export it for co-simulation, or "
+                                          r"as FMI 3 model exchange"):
+        cosimulate(_sim(), [FMU(fmi2, {"y": "q:slide.d"}, {"u": "lift"})], 0.1, 5e-3)
