@@ -349,6 +349,18 @@ def test_peak_stress_is_the_largest_over_every_output(tmp_path):
     assert mesh.point_data["time_of_max"][k] == pytest.approx(t[every[:, k].argmax()])
 
 
+def _hanging(b):
+    """(_machine's chain with a rigid link c hanging on flexible link ``b``'s tip, c's
+    shape: a 0.5 m stick)."""
+    links = [rigid_link("ground"), rigid_link("a", {"B": translation([1.0, 0, 0])}), b,
+             rigid_link("c")]
+    joints = [Joint("j1", "revolute", "ground", "body", "a", "body"),
+              Joint("j2", "revolute", "a", "B", "b", "body"),
+              Joint("j3", "revolute", "b", "tip", "c", "body")]
+    child = LinkShape("c", np.array([[0.0, 0, 0], [0.5, 0, 0]]), None, np.array([[0, 1]]))
+    return build_mechanism(links, joints), child
+
+
 def test_exaggerated_deformation_keeps_the_joints_together():
     """Issue 29: at x5 the link hanging on a flexible link was drawn at the true joint while
     the flexible link's tip was drawn magnified, detached from it. Drawn ``scale`` times
@@ -357,13 +369,7 @@ def test_exaggerated_deformation_keeps_the_joints_together():
     from pipeline.post.scene import drawn_configuration, joint_points, posed_points
 
     mech0, shapes = _machine()
-    links = [rigid_link("ground"), rigid_link("a", {"B": translation([1.0, 0, 0])}),
-             next(lk for lk in mech0.links if lk.name == "b"), rigid_link("c")]
-    joints = [Joint("j1", "revolute", "ground", "body", "a", "body"),
-              Joint("j2", "revolute", "a", "B", "b", "body"),
-              Joint("j3", "revolute", "b", "tip", "c", "body")]
-    mech = build_mechanism(links, joints)
-    child = LinkShape("c", np.array([[0.0, 0, 0], [0.5, 0, 0]]), None, np.array([[0, 1]]))
+    mech, child = _hanging(next(lk for lk in mech0.links if lk.name == "b"))
     q = np.zeros(mech.n)
     q[mech.index("b.eta1")] = 0.3  # mode 1: its tip field equals the tip frame's phi
     q[mech.index("j1.theta")], q[mech.index("j3.theta")] = 0.4, -0.6
@@ -400,14 +406,7 @@ def test_exaggerated_foreshortening_is_drawn_scale_times_not_scale_squared():
     b = next(lk for lk in mech0.links if lk.name == "b")
     H = np.zeros((2, 2, 3))
     H[0, 0, 0] = -0.15  # the tip comes 0.075 eta1^2 m nearer the root along x
-    b = replace(b, frames=tuple(replace(f, hess=H) for f in b.frames))
-    links = [rigid_link("ground"), rigid_link("a", {"B": translation([1.0, 0, 0])}), b,
-             rigid_link("c")]
-    joints = [Joint("j1", "revolute", "ground", "body", "a", "body"),
-              Joint("j2", "revolute", "a", "B", "b", "body"),
-              Joint("j3", "revolute", "b", "tip", "c", "body")]
-    mech = build_mechanism(links, joints)
-    child = LinkShape("c", np.array([[0.0, 0, 0], [0.5, 0, 0]]), None, np.array([[0, 1]]))
+    mech, child = _hanging(replace(b, frames=tuple(replace(f, hess=H) for f in b.frames)))
     q = np.zeros(mech.n)
     q[mech.index("b.eta1")] = 0.3
     q[mech.index("j1.theta")], q[mech.index("j3.theta")] = 0.4, -0.6

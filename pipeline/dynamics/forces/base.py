@@ -56,7 +56,8 @@ import numpy as np
 from pipeline.core.errors import ConfigError
 from pipeline.kinematics.poses import step_pose, step_value
 
-__all__ = ["CompiledElement", "ForceElement", "Kernels", "LineElement", "Load", "MarkerPoint",
+__all__ = ["CompiledElement", "CoordinateElement", "ForceElement", "Kernels", "LineElement",
+           "Load", "MarkerPoint",
            "check_coordinate", "check_marker", "element_forces", "marker_point", "marker_pose",
            "nonnegative"]
 
@@ -302,6 +303,17 @@ class Kernels(NamedTuple):
     @property
     def kind(self) -> int:
         return self.classes[0].KIND
+
+
+class CoordinateElement(ForceElement):
+    """Base of the elements acting on one coordinate, named by ``coordinate`` (a joint
+    spring, a joint force, a joint limit): their validation. Their force is transmitted
+    through the coordinate's joint: they have no loads of their own."""
+
+    coordinate: str
+
+    def validate(self, system) -> None:
+        check_coordinate(system, self.coordinate, self.name)
 
 
 class LineElement(ForceElement):

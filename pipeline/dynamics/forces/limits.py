@@ -30,13 +30,18 @@ from numba import njit
 
 from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
 from pipeline.core.errors import ConfigError
-from pipeline.dynamics.forces.base import CompiledElement, Kernels, check_coordinate, nonnegative
+from pipeline.dynamics.forces.base import (
+    CompiledElement,
+    CoordinateElement,
+    Kernels,
+    nonnegative,
+)
 
 __all__ = ["JointLimit"]
 
 
 @dataclass(frozen=True)
-class JointLimit(CompiledElement):
+class JointLimit(CompiledElement, CoordinateElement):
     """End stops on one coordinate: outside [lower, upper] (m or rad; None: no stop on
     that side) a spring ``stiffness`` (N/m or N m/rad) and a damper ``damping`` (N s/m or
     N m s/rad) push it back."""
@@ -78,9 +83,6 @@ class JointLimit(CompiledElement):
     @property
     def conservative(self) -> bool:
         return self.damping == 0.0
-
-    def validate(self, system) -> None:
-        check_coordinate(system, self.coordinate, self.name)
 
 
 # --------------------------------------------------------------------------- compiled form

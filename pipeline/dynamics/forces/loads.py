@@ -24,6 +24,7 @@ from pipeline.core.errors import ConfigError
 from pipeline.core.validate import validate_array
 from pipeline.dynamics.forces.base import (
     CompiledElement,
+    CoordinateElement,
     Kernels,
     LineElement,
     check_coordinate,
@@ -163,7 +164,7 @@ class Torque(CompiledElement):
 
 
 @dataclass(frozen=True)
-class JointForce(CompiledElement):
+class JointForce(CompiledElement, CoordinateElement):
     """Generalized force (N or N m) on one coordinate, scaled by ``history`` (transmitted
     through the joint of ``coordinate``: no loads of its own)."""
 
@@ -182,9 +183,6 @@ class JointForce(CompiledElement):
     @property
     def conservative(self) -> bool:
         return self.history is None
-
-    def validate(self, system) -> None:
-        check_coordinate(system, self.coordinate, self.name)
 
 
 @dataclass(frozen=True)

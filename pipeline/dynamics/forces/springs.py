@@ -25,9 +25,9 @@ from pipeline.core.errors import ConfigError
 from pipeline.core.validate import validate_array
 from pipeline.dynamics.forces.base import (
     CompiledElement,
+    CoordinateElement,
     Kernels,
     LineElement,
-    check_coordinate,
     nonnegative,
 )
 from pipeline.dynamics.forces.markers import line_geometry
@@ -100,7 +100,7 @@ class TableSpringDamper(SpringDamper):
 
 
 @dataclass(frozen=True)
-class JointSpringDamper(CompiledElement):
+class JointSpringDamper(CompiledElement, CoordinateElement):
     """Spring k (N m/rad or N/m) about free value q0 and damper c on one coordinate (its
     force is transmitted through the joint of ``coordinate``: no loads of its own)."""
 
@@ -125,9 +125,6 @@ class JointSpringDamper(CompiledElement):
     @property
     def conservative(self) -> bool:
         return self.damping == 0.0
-
-    def validate(self, system) -> None:
-        check_coordinate(system, self.coordinate, self.name)
 
 
 # --------------------------------------------------------------------------- compiled forms
