@@ -19,10 +19,12 @@ __all__ = ["KERNEL_MODULES", "check"]
 
 _ROOT = Path(__file__).resolve().parents[1]
 
-#: every module (relative to the package) that defines cached numba kernels: every module
-#: of the force-element package, whose kinds the dispatchers are composed from (a new
-#: element module changes the compiled step too)
+#: every module (relative to the package) that defines cached numba kernels or constants
+#: compiled into them: every module of the force-element package, whose kinds the
+#: dispatchers are composed from (a new element module changes the compiled step too)
 KERNEL_MODULES = ("kinematics/compiled.py", "dynamics/compiled.py", "solver/dae_kernels.py",
+                  # its constants (NEWTON_SHARE, REFRESH_AFTER) are compiled into the step
+                  "solver/generalized_alpha.py",
                   *sorted(p.relative_to(_ROOT).as_posix()
                           for p in (_ROOT / "dynamics" / "forces").glob("*.py")))
 

@@ -25,17 +25,15 @@ from pipeline.dynamics.compiled import _kernel as _inertia
 from pipeline.dynamics.compiled import gravity_potential
 from pipeline.dynamics.forces.compiled import generalized_forces, potential, state_rates
 from pipeline.kinematics.compiled import _kernel as _kinematics
-from pipeline.solver.generalized_alpha import NEWTON_SHARE
+from pipeline.solver.generalized_alpha import NEWTON_SHARE, REFRESH_AFTER
 
 __all__ = ["kin_tuple", "march", "mass_tuple", "output", "start", "step", "terms"]
 
 MAX_NEWTON = 12
-# a step that has not converged after REFRESH_AFTER modified-Newton iterations refreshes
+# a step that has not converged after REFRESH_AFTER modified-Newton iterations (one
+# definition for both generalised-alpha steps: pipeline.solver.generalized_alpha) refreshes
 # its iteration matrix (n evaluations by finite differences) before the next one, and
-# accepts the user's tolerance from then on: after 3, a 64-bar chain refreshed it 33 times
-# a second for steps that a fourth cheap iteration finishes (5.0 evaluations a step
-# against 3.0)
-REFRESH_AFTER = 4
+# accepts the user's tolerance from then on
 
 
 def kin_tuple(cm) -> tuple:

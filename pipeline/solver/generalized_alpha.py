@@ -35,6 +35,14 @@ from pipeline.core.errors import ConfigError
 #: again, for 10 % more evaluations)
 NEWTON_SHARE = 1e-4
 
+#: a step that has not converged after this many modified-Newton iterations refreshes its
+#: iteration matrix before the next (both generalised-alpha steps: the partitioned ODE form
+#: here, and the index-3 step of pipeline.solver.dae_kernels). Loader, 100 steps of 5 ms
+#: (partitioned): 2 -> 1360 evaluations, 3 -> 744, 4 -> 562, only on failure (8) -> 615; a
+#: swinging 64-bar chain (index-3) refreshed it 33 times a second after 3 for steps that a
+#: fourth cheap iteration finishes (5.0 evaluations a step against 3.0)
+REFRESH_AFTER = 4
+
 
 def coefficients(rho_inf: float) -> tuple[float, float, float, float]:
     """(alpha_m, alpha_f, beta, gamma) for spectral radius ``rho_inf`` in [0, 1] at h w -> inf.
@@ -88,9 +96,8 @@ class GeneralizedAlpha(OdeSolver):
     """
 
     MAX_NEWTON = 8
-    #: Newton iterations after which a step refreshes df/dq, df/dv (loader, 100 steps of 5 ms:
-    #: 2 -> 1360 evaluations, 3 -> 744, 4 -> 562, only on failure (8) -> 615)
-    REFRESH_AFTER = 4
+    #: Newton iterations after which a step refreshes df/dq, df/dv (module's REFRESH_AFTER)
+    REFRESH_AFTER = REFRESH_AFTER
     #: ... and at the start of the step after one whose last Newton iteration contracted the
     #: residual by less than this factor (loader, 10 s at 10 ms: 3.30 -> 2.94 evaluations per
     #: step with 0.03; 0.01: 3.05, 0.1: 2.98)

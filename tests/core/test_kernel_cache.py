@@ -45,4 +45,12 @@ def test_every_module_with_cached_kernels_is_watched():
     forces = {p.relative_to(root).as_posix() for p in (root / "dynamics/forces").glob("*.py")}
     assert "objmode" in (root / "dynamics/forces/compiled.py").read_text()
     assert "dynamics/forces/python_elements.py" in forces
-    assert cached | forces == set(kernel_cache.KERNEL_MODULES)
+    # and the modules whose constants the kernels import (numba compiles a global's value
+    # in): a changed constant there must rebuild the kernels too
+    constants = set()
+    for name in cached:
+        for m in re.finditer(r"^from pipeline\.(\w+(?:\.\w+)*) import ([A-Z_, ]+)$",
+                             (root / name).read_text(), re.MULTILINE):
+            constants.add(m.group(1).replace(".", "/") + ".py")
+    assert constants == {"solver/generalized_alpha.py"}, constants
+    assert cached | forces | constants == set(kernel_cache.KERNEL_MODULES)
