@@ -368,7 +368,7 @@ class _Slave:
 
     def exported(self, names) -> list[str]:
         """Make its output variables ``names`` readable by other blocks; ConfigError naming
-        the first that is not a Real output of the FMU."""
+        the first that is not a numeric output of the FMU."""
         for name in names:
             v = self.variables.get(name)
             if v is None or v.causality != "output" or v.type not in _SETTERS:
@@ -389,8 +389,12 @@ class _Slave:
         self._set_inputs(sim, linked)
         if self.exchange:
             self._integrate(t, h)
-            return {target: x for (_, target), x in zip(self.outputs,
-                                                         self._get(self.out_vars))}
+        else:
+            self._do_step(t, h)
+        return {target: x for (_, target), x in zip(self.outputs, self._get(self.out_vars))}
+
+    def _do_step(self, t: float, h: float) -> None:
+        """A co-simulation FMU's own step [t, t + h]."""
         try:
             done = self.slave.doStep(currentCommunicationPoint=t, communicationStepSize=h)
         except Exception as exc:  # noqa: BLE001 - fmpy raises on any status but OK
@@ -401,17 +405,19 @@ class _Slave:
             if terminate or early:
                 raise _StepFailed(f"{self.where}: its step at t = {t:.6g} s ended at "
                                   f"{reached:.6g} s ({'it asked to terminate' if terminate else 'early return'})")
-        return {target: x for (_, target), x in zip(self.outputs, self._get(self.out_vars))}
 
     # ------------------------------------------------------------ model exchange
     def _continuous_time(self, nx: int) -> None:
         """From the initialisation (Event Mode) to Continuous-Time Mode, and the states."""
-        while True:
+        for _ in range(100):  # (an FMU's event iteration converges in a few)
             need, terminate, *_ = self.slave.updateDiscreteStates()
             if terminate:
                 raise ConfigError(f"{self.where}: asked to terminate at its initialisation")
             if not need:
                 break
+        else:
+            raise ConfigError(f"{self.where}: its discrete states did not settle at its "
+                              "initialisation (100 event iterations)")
         self.slave.enterContinuousTimeMode()
         self.nx = int(nx)
         self.x = (ctypes.c_double * self.nx)()

@@ -7,9 +7,9 @@ evaluate the same kernels through :class:`CompiledForces` (``System.compiled_for
 An element kind lives in one module of this package: its class (a ``KIND`` number, the
 YAML ``TYPE`` name and ``pack(mech, markers)``, its rows of the flat data), its kernels and
 a module-level ``KERNELS`` tuple of :class:`~pipeline.dynamics.forces.base.Kernels`. The
-modules are found here (:func:`element_modules`) and the dispatchers are composed from
-their kernels (numba calls a compiled function only by name, so each dispatcher is a chain
-of small compiled closures, one per kind, that LLVM inlines into the caller); the YAML
+modules are found here (:func:`element_modules`) and the dispatchers are filled from
+their kernels (numba calls a compiled function only by name, so each dispatcher is one
+compiled function per term with a slot per kind, :func:`_dispatcher`); the YAML
 vocabulary :data:`~pipeline.dynamics.forces.FORCES` follows from the same registry.
 Adding a kind touches its own module only (``docs/force_elements.md`` works one through);
 ``tests/solver/test_compiled_step.py`` fails for an element class without its compiled
