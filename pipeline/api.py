@@ -36,7 +36,8 @@ Pictures
     :func:`render_positions`, :func:`animate_machine`, :func:`render_modes`,
     :func:`write_vtk_series`, :func:`plot_panels` (a PNG) or :func:`panels_figure` (a
     Figure, for a notebook); :func:`machine_plotter` (a pyvista Plotter) and
-    :func:`machine_blocks` (a MultiBlock of the links by name), for a notebook.
+    :func:`machine_blocks` (a MultiBlock of the links by name), for a notebook; a study's
+    charts as Figures: :func:`convergence_figure`, :func:`outputs_figure`.
 Workflows and studies
     :func:`load_workflow`, :func:`build_machine`, :func:`run_workflow`, :func:`run_study`
     (mode-truncation and design studies on Dask, ``docs/studies.md``).
@@ -90,6 +91,8 @@ _HOMES = {
     "Panel": "pipeline.post.plots",
     "plot_panels": "pipeline.post.plots",
     "panels_figure": "pipeline.post.plots",
+    "convergence_figure": "pipeline.post.study_plot",
+    "outputs_figure": "pipeline.post.study_plot",
     "render_modes": "pipeline.post.render",
     "Picture": "pipeline.post.scene",
     "Style": "pipeline.post.scene",
@@ -165,6 +168,7 @@ if TYPE_CHECKING:  # what the names are, for readers and type checkers
         render_positions,
     )
     from pipeline.post.shapes import LinkShape, shape_from_reduced
+    from pipeline.post.study_plot import convergence_figure, outputs_figure
     from pipeline.post.vtk_series import machine_blocks, write_vtk_series
     from pipeline.solver import Limits, SimulationResult, simulate
     from pipeline.solver.cosim import FMU, SampledPID, cosimulate
@@ -220,10 +224,11 @@ __all__ = [
     "Panel", "Picture", "PointForce", "Ramp", "ReducedLink", "SampledPID", "SimulationResult",
     "Simulator", "SimulatorState", "SmoothStep", "SpringDamper",
     "Style", "System", "Table", "Torque", "animate_machine", "body_from_reduced",
-    "build_machine", "build_mechanism", "cosimulate", "dof_report",
+    "build_machine", "build_mechanism", "convergence_figure", "cosimulate", "dof_report",
     "effective_mass_fractions", "energies",
     "initial_positions", "kept_modes", "kinetostatics", "link_from_reduced", "load_link_spec",
-    "load_workflow", "machine_blocks", "machine_plotter", "machine_shapes", "marker_motion", "marker_positions", "panels_figure",
+    "load_workflow", "machine_blocks", "machine_plotter", "machine_shapes", "marker_motion",
+    "marker_positions", "outputs_figure", "panels_figure",
     "plot_panels", "principal_stresses", "reduce_link", "render_machine", "render_modes", "render_positions",
     "rigid_link", "run_study", "run_workflow", "series", "shape_from_reduced", "simulate",
     "static_equilibrium", "sweep", "vibration_modes", "von_mises", "write_vtk_series",

@@ -1,4 +1,6 @@
-"""Bar chart of a case study: relative RMS difference of each case from the reference."""
+"""A case study's charts: relative RMS difference of each case from the reference (bars),
+and a derived output against a varied parameter. Each is a matplotlib Figure
+(``*_figure``, for a notebook) and a PNG writer of that Figure (``plot_*``)."""
 
 from __future__ import annotations
 
@@ -28,9 +30,16 @@ def log_bar_limits(values) -> tuple[float, float]:
 
 def plot_convergence(path: str | Path, labels, relative: dict, *, reference: str,
                      title: str | None = None) -> Path:
-    """PNG: one group of bars per case, one bar per series, log scale from a decade below
-    the smallest bar (:func:`log_bar_limits`), each bar labelled with its value (reference
-    omitted; a value that is not finite draws no bar, and a chart with none says so).
+    """PNG of :func:`convergence_figure`; returns the path."""
+    return save_figure(convergence_figure(labels, relative, reference=reference, title=title),
+                       path)
+
+
+def convergence_figure(labels, relative: dict, *, reference: str, title: str | None = None):
+    """Figure: one group of bars per case, one bar per series, log scale from a decade
+    below the smallest bar (:func:`log_bar_limits`), each bar labelled with its value
+    (reference omitted; a value that is not finite draws no bar, and a chart with none
+    says so).
 
     Parameters
     ----------
@@ -61,13 +70,19 @@ def plot_convergence(path: str | Path, labels, relative: dict, *, reference: str
     ax.set_title(title or f"Convergence towards '{reference}'")
     ax.grid(True, axis="y", which="both", alpha=0.3)
     ax.legend(fontsize=8)
-    return save_figure(fig, path)
+    fig.tight_layout()
+    return fig
 
 
 def plot_outputs(path: str | Path, rows: list[dict], output: str, parameter: str,
                  title: str | None = None) -> Path:
-    """PNG: a study's derived output (``out:<name>`` of the table rows) against one varied
-    parameter (``set:<path>``, numeric), one point per case."""
+    """PNG of :func:`outputs_figure`; returns the path."""
+    return save_figure(outputs_figure(rows, output, parameter, title), path)
+
+
+def outputs_figure(rows: list[dict], output: str, parameter: str, title: str | None = None):
+    """Figure: a study's derived output (``out:<name>`` of the table rows) against one
+    varied parameter (``set:<path>``, numeric), one point per case."""
     import json
 
     pts = []
@@ -88,4 +103,5 @@ def plot_outputs(path: str | Path, rows: list[dict], output: str, parameter: str
     ax.set_ylabel(output)
     ax.set_title(title or f"{output} against {parameter}")
     ax.grid(True, alpha=0.3)
-    return save_figure(fig, path)
+    fig.tight_layout()
+    return fig
