@@ -96,9 +96,20 @@ def _mark_extreme(ax, c: Curve, color, xlabel: str, row: int | None) -> None:
         # late in the span the label reads leftwards (inside the axes); the curves'
         # labels are stacked so that coinciding extremes stay legible
         late = x[k] > np.nanmin(x) + 0.7 * np.ptp(x[np.isfinite(x)])
-        ax.annotate(f"{y[k]:.3g} at {x[k]:.3g}{unit}", (x[k], y[k]),
+        ax.annotate(f"{_short(y[k])} at {_short(x[k])}{unit}", (x[k], y[k]),
                     xytext=(-6 if late else 6, 4 - 10 * row), textcoords="offset points",
                     ha="right" if late else "left", fontsize=7, color=color)
+
+
+def _short(v: float) -> str:
+    """v in 3 significant digits, as a reader writes it: whole from 1000 to 10^6 (1227, not
+    1.23e+03), with an exponent only beyond.
+
+    >>> _short(1227.4), _short(-29240.0), _short(0.00166), _short(3.0), _short(2.5e7)
+    ('1227', '-29240', '0.00166', '3', '2.5e+07')
+    """
+    text = f"{v:.3g}"
+    return f"{v:.0f}" if "e+" in text and abs(v) < 1e6 else text
 
 
 def _bars(ax, p: Panel) -> None:

@@ -313,12 +313,16 @@ def scene_bounds(mech, shapes, Q, scale) -> np.ndarray:
 
 
 def _drawn_points(mech, shapes, q, scale, joints: bool = False) -> list[np.ndarray]:
-    """Ground points (m) of every link (and the joints) at q as drawn, the poses computed
-    once."""
+    """Ground points (m) of every link (and the joints drawn with them) at q as drawn, the
+    poses computed once. Only the drawn links' joints: a picture of some links is framed
+    on them (the tractor-semitrailer's springs anchor 100 m off, on links left out)."""
     poses = drawn_poses(mech, q, scale)
     out = [posed_points(mech, s, q, scale, poses)[0] for s in shapes.values()]
-    return out + [joint_points(drawing_mechanism(mech, scale),
-                               drawn_configuration(mech, q, scale), poses)[0]] if joints else out
+    if not joints:
+        return out
+    P = joint_points(drawing_mechanism(mech, scale), drawn_configuration(mech, q, scale),
+                     poses)[0]
+    return out + [P[drawn_joints(mech, shapes)]]
 
 
 def nice_length(x: float) -> float:

@@ -47,3 +47,13 @@ def test_bars_and_paths_are_left_as_they_are():
     path = Curve("tip", np.cos(s), np.sin(s))
     ax = panels_figure([Panel("path", "x, m", "y, m", [path], equal=True)]).axes[0]
     assert not _marks(ax)  # a path's x is not time: no extreme of a history
+
+
+def test_a_large_value_is_written_whole_not_with_an_exponent():
+    """A stroke of 1227 mm read "1.23e+03 at 1.5 s" on the excavator's plot."""
+    t = np.linspace(0.0, 1.5, 31)
+    ax = panels_figure([Panel("BCYL.d", "time, s", "mm", [Curve("d", t, 1195 + 21.5 * t ** 2),
+                                                         ])]).axes[0]
+    assert [a.get_text() for a in ax.texts] == ["1243 at 1.5 s"]
+    ax = panels_figure([Panel("p", "time, s", "Pa", [Curve("p", t, 2.5e7 * t)])]).axes[0]
+    assert [a.get_text() for a in ax.texts] == ["3.75e+07 at 1.5 s"]

@@ -36,6 +36,19 @@ def _machine():
     return mech, shapes
 
 
+def test_a_picture_of_some_links_is_framed_on_them():
+    """The tractor-semitrailer's picture of its two bodies was framed on the joints of its
+    spring anchors too, 100 m away: the vehicle a speck at the top. The bounds take the
+    joints drawn with the links only."""
+    from pipeline.post.scene import scene_bounds
+
+    mech, shapes = _machine()
+    q = np.zeros(mech.n)
+    b_only = scene_bounds(mech, {"b": shapes["b"]}, [q], 1.0)
+    assert b_only[0, 0] == pytest.approx(1.0)  # from b's root (j2), not j1 at the origin
+    assert scene_bounds(mech, shapes, [q], 1.0)[0, 0] == pytest.approx(0.0)
+
+
 def test_a_picture_of_some_links_draws_their_joints_only():
     from pipeline.post.scene import drawn_joints
 
