@@ -301,7 +301,7 @@ def _bar(plotter, scale, clim, color="displacement"):
         mesh.point_data[title] = [0.0]
         plotter.add_mesh(mesh, scalars=title, cmap="viridis", clim=clim, point_size=0.0,
                          opacity=0.0, show_scalar_bar=True,
-                         scalar_bar_args={"color": "black", "fmt": "%.3g"})
+                         scalar_bar_args={"color": "black", "fmt": "%.4g"})
 
 
 def scene_bounds(mech, shapes, Q, scale) -> np.ndarray:
