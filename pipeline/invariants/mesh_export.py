@@ -75,13 +75,18 @@ def _write_inp(path: Path, name: str, points: np.ndarray, cells: np.ndarray) -> 
                       for e, nodes in enumerate(cells + 1, start=1))
 
 
-def _field(x: float) -> str:
-    """x in the most significant digits (17 at most) that fit 20 characters."""
+def _field(x: float, width: int = 20, nastran: bool = False) -> str:
+    """x in the most significant digits (17 at most) that fit ``width`` characters (an
+    Abaqus field's 20 that CalculiX reads; a Nastran large field's 16, where a real keeps
+    its decimal point and writes its exponent short: 1.25-3). Six digits always fit."""
     for digits in range(17, 5, -1):
-        text = f"{x:.{digits}g}"
-        if len(text) <= 20:
+        text = f"{x:#.{digits}g}" if nastran else f"{x:.{digits}g}"
+        if nastran and "e" in text:
+            mantissa, exponent = text.split("e")
+            text = f"{mantissa}{int(exponent):+d}"
+        if len(text) <= width:
             return text
-    return f"{x:.6g}"
+    raise ValueError(f"{x!r} does not fit a field of {width} characters")
 
 
 def _write_bdf(path: Path, name: str, points: np.ndarray, cells: np.ndarray) -> None:
@@ -102,13 +107,5 @@ def _write_bdf(path: Path, name: str, points: np.ndarray, cells: np.ndarray) -> 
 
 
 def _large(x: float) -> str:
-    """x as a Nastran real in a 16-character field, in the most digits that fit: with a
-    decimal point always, and an exponent written as Nastran's short form (1.25-3)."""
-    for digits in range(16, 5, -1):
-        text = f"{x:#.{digits}g}"
-        if "e" in text:
-            mantissa, exponent = text.split("e")
-            text = f"{mantissa}{int(exponent):+d}"
-        if len(text) <= 16:
-            return f"{text:>16}"
-    raise ValueError(f"{x!r} does not fit a Nastran field")  # (finite coordinates always fit)
+    """x as a real in a Nastran large field: 16 characters, right-aligned."""
+    return f"{_field(x, 16, nastran=True):>16}"

@@ -65,6 +65,13 @@ def drawn_poses(mech, q, scale: float) -> np.ndarray:
     return link_poses(drawing_mechanism(mech, scale), drawn_configuration(mech, q, scale))
 
 
+def drawn_joint_points(mech, q, scale: float, poses=None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`joint_points` as drawn at q with the deformation ``scale`` times (``poses``:
+    :func:`drawn_poses` at q, computed if None)."""
+    return joint_points(drawing_mechanism(mech, scale), drawn_configuration(mech, q, scale),
+                        poses)
+
+
 def posed_points(mech, shape, q, scale: float = 1.0, poses=None) -> tuple[np.ndarray, np.ndarray]:
     """((N, 3) ground points, (N,) elastic displacement magnitude, m) of a link at q.
 
@@ -223,8 +230,7 @@ class _Pivots:
         """The joints of the links drawn (``shapes``: their LinkShapes; None: every joint),
         where the links are drawn with their deformation times ``scale``."""
         self.mech, self.scale = mech, scale
-        P, grounded = joint_points(drawing_mechanism(mech, scale),
-                                   drawn_configuration(mech, q, scale))
+        P, grounded = drawn_joint_points(mech, q, scale)
         self.shown = drawn_joints(mech, shapes)
         P, grounded = P[self.shown], grounded[self.shown]
         self.grounded = grounded
@@ -239,8 +245,7 @@ class _Pivots:
 
     def update(self, q, poses=None):
         """``poses``: :func:`drawn_poses` at q, as :meth:`_Drawn.update`."""
-        P = joint_points(drawing_mechanism(self.mech, self.scale),
-                         drawn_configuration(self.mech, q, self.scale), poses)[0][self.shown]
+        P = drawn_joint_points(self.mech, q, self.scale, poses)[0][self.shown]
         if self.free is not None:
             self.free.points = P[~self.grounded]
         if self.fixed is not None:
@@ -320,9 +325,7 @@ def _drawn_points(mech, shapes, q, scale, joints: bool = False) -> list[np.ndarr
     out = [posed_points(mech, s, q, scale, poses)[0] for s in shapes.values()]
     if not joints:
         return out
-    P = joint_points(drawing_mechanism(mech, scale), drawn_configuration(mech, q, scale),
-                     poses)[0]
-    return out + [P[drawn_joints(mech, shapes)]]
+    return out + [drawn_joint_points(mech, q, scale, poses)[0][drawn_joints(mech, shapes)]]
 
 
 def nice_length(x: float) -> float:

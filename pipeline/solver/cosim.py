@@ -285,7 +285,7 @@ class _Slave:
                 if v is None:
                     raise ConfigError(f"{self.where}: {what} {name!r}: no such variable; its "
                                       f"variables: {sorted(variables)}")
-                if v.causality not in causalities or v.type not in _SETTERS:
+                if not _usable(v, causalities):
                     raise ConfigError(f"{self.where}: {what} {name!r}: expected a number "
                                       f"(Real, Integer, Boolean; FMI 3: Float64, Float32, "
                                       f"Int8-64, UInt8-64, Boolean, Enumeration) of causality "
@@ -371,7 +371,7 @@ class _Slave:
         the first that is not a numeric output of the FMU."""
         for name in names:
             v = self.variables.get(name)
-            if v is None or v.causality != "output" or v.type not in _SETTERS:
+            if v is None or not _usable(v, ("output",)):
                 outs = sorted(k for k, x in self.variables.items() if x.causality == "output")
                 raise ConfigError(f"{self.where}: has no output {name!r} for another block "
                                   f"to read (its outputs: {outs})")
@@ -486,6 +486,11 @@ _SETTERS = {
     **{f"{u}Int{b}": (None, f"set{u}Int{b}") for u in ("", "U") for b in (8, 16, 32, 64)},
 }
 _INTEGERS = {"Integer", "Enumeration"} | {f"{u}Int{b}" for u in ("", "U") for b in (8, 16, 32, 64)}
+
+
+def _usable(v, causalities) -> bool:
+    """Can the master set or read FMU variable v: a number of one of ``causalities``?"""
+    return v.causality in causalities and v.type in _SETTERS
 
 
 def _typed(v, x: float):
