@@ -410,9 +410,13 @@ class _Slave:
     def _continuous_time(self, nx: int) -> None:
         """From the initialisation (Event Mode) to Continuous-Time Mode, and the states."""
         for _ in range(100):  # (an FMU's event iteration converges in a few)
-            need, terminate, *_ = self.slave.updateDiscreteStates()
+            need, terminate, _, _, timed, at = self.slave.updateDiscreteStates()
             if terminate:
                 raise ConfigError(f"{self.where}: asked to terminate at its initialisation")
+            if timed:  # a time event this master would step over, silently
+                raise ConfigError(f"{self.where}: a model-exchange FMU with a time event (at "
+                                  f"t = {at:.6g} s): its events are not handled here; export "
+                                  "it for co-simulation")
             if not need:
                 break
         else:
