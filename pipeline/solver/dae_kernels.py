@@ -227,7 +227,11 @@ def _powers(M, rhs, Qnc, C, gw, v, aP, U, P, eps):
     pnc = 0.0
     for i in range(v.shape[0]):
         pnc += Qnc[i] * v[i]
-    if P.shape[0] == 0:
+    held = True  # drivers at rest do no work: no index-1 solve for it (a held slew)
+    for k in range(P.shape[0]):
+        if v[P[k]] != 0.0:
+            held = False
+    if held:
         return 0.0, -pnc
     qdd, lam = _index1(M, rhs, C, gw, aP, U, P, eps)
     FP = _residual_rows(M, rhs, C, qdd, lam, P)
