@@ -166,3 +166,28 @@ def test_a_users_subclass_of_a_built_in_is_its_own_element():
         Bare("bare", **kw).generalized_force(s, tree, q, qd, 0.0)
     ref = oracle.force(SpringDamper("x", **kw), s, tree, q, qd, 0.0)[0]
     _close(Doubled("doubled", **kw).generalized_force(s, tree, q, qd, 0.0), 2.0 * ref)
+
+
+def test_a_machine_without_force_elements_calls_no_force_kernel(monkeypatch):
+    """Its force sums are zeros without the elements' compiled dispatchers, which a fresh
+    machine's first run would otherwise compile (22 s of the main job's first run here,
+    in each case worker) to add nothing."""
+    import pipeline.dynamics.forces.compiled as C
+
+    base = flexible_four_bar(n_modes=2).system
+    s = System(base.mechanism, base.bodies, base.gravity)
+    q = assemble(s.mechanism, s.mechanism.q_initial).q
+    qd = np.linspace(-1.0, 1.0, q.size)
+
+    def compiled(*args):
+        raise AssertionError("a force kernel was called")
+
+    for name in ("generalized_forces", "potential", "state_rates"):
+        monkeypatch.setattr(C, name, compiled)
+    tree = evaluate_tree(s.mechanism, q, qd)
+    Q, Qnc = s.compiled_forces.forces(tree, q, qd, 0.3)
+    assert Q.shape == Qnc.shape == (q.size,) and not Q.any() and not Qnc.any()
+    assert s.compiled_forces.potential(tree, q) == 0.0
+    assert s.compiled_forces.rates(tree, q, qd, 0.3, np.zeros(0)).shape == (0,)
+    terms = equation_terms(s, q, qd, 0.3)
+    assert not terms.Q_forces.any()

@@ -413,20 +413,26 @@ class CompiledForces:
     def forces(self, tree, q, qd, t: float, z=None) -> tuple[np.ndarray, np.ndarray]:
         """(Q (n,), its non-conservative part (n,)) of every element at (q, qd, t) and the
         elements' states z (nz,); ``tree`` the TreeState at q."""
-        A, dA = self._tree_arrays(tree, q)
         Q, Qnc = np.zeros(q.size), np.zeros(q.size)
+        if not self.elements:  # no kernel to compile (a fresh machine's first run)
+            return Q, Qnc
+        A, dA = self._tree_arrays(tree, q)
         generalized_forces(q, qd, self._states(z), A, dA, self._factors(t), self.data, Q, Qnc)
         return Q, Qnc
 
     def potential(self, tree, q) -> float:
         """Potential energy (J) of every element's conservative part at q."""
+        if not self.elements:
+            return 0.0
         A, dA = self._tree_arrays(tree, q)
         return float(potential(q, A, dA, self.data))
 
     def rates(self, tree, q, qd, t: float, z) -> np.ndarray:
         """(nz,) the rates of the elements' own states at (q, qd, t, z)."""
-        A, dA = self._tree_arrays(tree, q)
         zd = np.zeros(self.nz)
+        if not self.nz:
+            return zd
+        A, dA = self._tree_arrays(tree, q)
         state_rates(q, qd, self._states(z), A, dA, self._factors(t), self.data, zd)
         return zd
 
