@@ -4,12 +4,17 @@ A link meshed here can be checked, or carried on, in the FE code a company trust
 solid mesh (the quadratic or linear tetrahedra the reduction used, with their midside
 nodes where they are) goes out as Abaqus/CalculiX ``.inp`` or Nastran bulk data ``.bdf``
 (both written here) or through meshio as gmsh ``.msh`` or ``.vtu``, in the link's
-geometry frame (the frame its spec is written in) and in metres. Read back as ``geometry: {type: mesh, path: ..., units: m}`` with the same
-interfaces, it reduces to the same link (:mod:`pipeline.meshing.imported`).
+geometry frame (the frame its spec is written in) and in metres. Read back as
+``geometry: {type: mesh, path: ..., units: m}`` with the same interfaces, it reduces to the
+same link (:mod:`pipeline.meshing.imported`). An ``.inp`` also names each interface's nodes
+(``*NSET``, by the group its selector picked and by the interface), so a spec whose
+interfaces select gmsh groups selects the same nodes from it; Nastran bulk data has no
+named node sets, and meshio's ``.msh`` and ``.vtu`` are written without them.
 """
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +23,9 @@ from pipeline.core.atomic import atomic_path
 from pipeline.core.errors import ConfigError
 from pipeline.invariants.reduced_link import ReducedLink
 
-__all__ = ["MESH_EXPORTS", "write_link_mesh"]
+__all__ = ["MESH_EXPORTS", "node_sets", "write_link_mesh"]
+
+logger = logging.getLogger(__name__)
 
 #: file suffix -> format (Abaqus and Nastran written here: CalculiX reads 20 characters of
 #: a field, and meshio's Nastran writer cut negative coordinates short of 16)
@@ -51,7 +58,12 @@ def write_link_mesh(link: ReducedLink, path: str | Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as tmp:
         if fmt == "abaqus":
-            _write_inp(tmp, link.name, points, cells)
+            sets = node_sets(link)
+            if not sets:
+                logger.info("%s: no node sets of the interfaces: link %r was reduced before "
+                            "they were kept (pipeline reduce --rebuild adds them)", path,
+                            link.name)
+            _write_inp(tmp, link.name, points, cells, sets)
         elif fmt == "nastran":
             _write_bdf(tmp, link.name, points, cells)
         else:
@@ -59,12 +71,28 @@ def write_link_mesh(link: ReducedLink, path: str | Path) -> Path:
     return path
 
 
-def _write_inp(path: Path, name: str, points: np.ndarray, cells: np.ndarray) -> None:
+def node_sets(link: ReducedLink) -> dict[str, np.ndarray]:
+    """Name -> node indices (into ``link.nodes``) of each interface's FE nodes: named by
+    the mesh group its selector picked (so the link's own spec selects them again from
+    the written file) and by the interface; empty for an artifact made before they were
+    kept."""
+    sets: dict[str, np.ndarray] = {}
+    for row in link.meta.get("interface_nodes", ()):
+        nodes = np.asarray(row["nodes"], dtype=np.int64)
+        for name in (row["group"], row["interface"]):
+            if name and name.upper() not in {k.upper() for k in sets}:
+                sets[name] = nodes
+    return sets
+
+
+def _write_inp(path: Path, name: str, points: np.ndarray, cells: np.ndarray,
+               sets: dict[str, np.ndarray]) -> None:
     """An Abaqus/CalculiX input of the mesh: ``*NODE`` (1-based, each coordinate in the
     most digits that fit 20 characters: CalculiX reads no more of a field, and meshio's 24
-    would be cut) and ``*ELEMENT`` as C3D10 or C3D4 (meshio's C3D10MH is Abaqus' hybrid
+    would be cut), ``*ELEMENT`` as C3D10 or C3D4 (meshio's C3D10MH is Abaqus' hybrid
     element, which CalculiX does not take) in an element set named by the link, for the
-    FE tool's ``*SOLID SECTION``."""
+    FE tool's ``*SOLID SECTION``, and a ``*NSET`` of each of ``sets`` (16 per line, as
+    Abaqus reads them): the interfaces' nodes, for the FE tool's loads and supports."""
     kind = "C3D10" if cells.shape[1] == 10 else "C3D4"
     with open(path, "w") as fh:
         fh.write(f"*HEADING\nlink {name}: FE mesh, metres\n*NODE, NSET=NALL\n")
@@ -73,6 +101,11 @@ def _write_inp(path: Path, name: str, points: np.ndarray, cells: np.ndarray) -> 
         fh.write(f"*ELEMENT, TYPE={kind}, ELSET={name.upper()}\n")
         fh.writelines(f"{e}, " + ", ".join(map(str, nodes)) + "\n"
                       for e, nodes in enumerate(cells + 1, start=1))
+        for set_name, nodes in sets.items():
+            fh.write(f"*NSET, NSET={set_name}\n")
+            ids = nodes + 1
+            fh.writelines(", ".join(map(str, ids[k:k + 16])) + "\n"
+                          for k in range(0, ids.size, 16))
 
 
 def _field(x: float, width: int = 20, nastran: bool = False) -> str:

@@ -161,7 +161,9 @@ def reduce_link(request: LinkRequest, times: StageTimes | None = None,
             "stage_seconds": times.as_dict(), "mesh": _mesh_quality(mesh, moments, request),
             "reference_conditions": {"reference": request.reference, "chord": request.chord,
                                      "craig_bampton": basis.settings.get("cb_interfaces", [])},
-            "interface_compliance": compliance, **stiffening, **(meta or {})}
+            "interface_compliance": compliance,
+            "interface_nodes": _interface_nodes(request, interfaces), **stiffening,
+            **(meta or {})}
     cells = model.extras.get("cell_materials")
     if cells is not None and not cells.uniform:
         count = np.bincount(cells.index, minlength=len(cells.materials))
@@ -321,6 +323,23 @@ def _check_matrix_mass(request: LinkRequest, mesh: MeshData, mass: float, where:
             f"{g.matrices.mass_unit!r}) is {mass / expected:.4g} times material.rho x the "
             f"mesh's volume ({expected:.6g} kg): is the mass unit right (t with mm and N), "
             "and material.rho the FE model's?")
+
+
+def _interface_nodes(request, interfaces) -> list[dict]:
+    """Each interface's FE nodes (indices into the link's ``nodes``) and the mesh group its
+    selector named, if any: an exported mesh carries them as node sets
+    (:mod:`pipeline.invariants.mesh_export`), so the same spec reads it back."""
+    from pipeline.meshing.selectors import PhysicalGroup
+
+    selectors = {s[0]: s[1] for s in (i if isinstance(i, tuple) else (i.name, i.selector)
+                                      for i in request.interfaces)}
+    out = []
+    for itf in interfaces:
+        sel = selectors.get(itf.name)
+        out.append({"interface": itf.name,
+                    "group": sel.name if isinstance(sel, PhysicalGroup) else None,
+                    "nodes": [int(k) for k in itf.nodes]})
+    return out
 
 
 def _reference_first(interfaces, reference: str) -> tuple[Interface, ...]:

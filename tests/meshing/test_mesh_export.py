@@ -88,10 +88,11 @@ def test_only_a_solid_link_is_written_and_by_a_known_suffix(tmp_path):
 @pytest.mark.skipif(__import__("shutil").which("ccx") is None,
                     reason="CalculiX (apt calculix-ccx) absent")
 def test_calculix_runs_the_written_deck_to_the_same_frequencies(tmp_path):
-    """The .inp goes to CalculiX as it is (C3D10 in element set BAR), given a material and a
-    clamp of the root face (SI units, as written): its clamped frequencies are the link's
-    (the rbe2 root is that clamp; the rbe3 tip adds no stiffness), to the 3e-5 the two
-    codes' elements differ by on the box of test_mesh_import."""
+    """The .inp goes to CalculiX as it is (C3D10 in element set BAR, the interfaces' nodes
+    in node sets), given a material and a clamp of the written root set (SI units, as
+    written): its clamped frequencies are the link's (the rbe2 root is that clamp; the
+    rbe3 tip adds no stiffness), to the 3e-5 the two codes' elements differ by on the box
+    of test_mesh_import."""
     import re
     import subprocess
 
@@ -103,12 +104,12 @@ def test_calculix_runs_the_written_deck_to_the_same_frequencies(tmp_path):
     assert "*ELEMENT, TYPE=C3D10, ELSET=BAR" in text
     H = native.body_pose
     x = (native.nodes @ H[:3, :3].T + H[:3, 3])[:, 0]
-    root = np.flatnonzero(np.abs(x) < 1e-9) + 1
-    text += ("*NSET, NSET=ROOT\n" + "\n".join(", ".join(map(str, root[i:i + 8]))
-                                              for i in range(0, root.size, 8)) + "\n"
-             "*MATERIAL, NAME=AL\n*ELASTIC\n7.0e10, 0.33\n*DENSITY\n2700.\n"
+    root = np.flatnonzero(np.abs(x) < 1e-9) + 1  # the root face's nodes, 1-based
+    written = text.split("*NSET, NSET=root\n")[1].split("*")[0]
+    assert sorted(map(int, written.replace(",", " ").split())) == root.tolist()
+    text += ("*MATERIAL, NAME=AL\n*ELASTIC\n7.0e10, 0.33\n*DENSITY\n2700.\n"
              "*SOLID SECTION, ELSET=BAR, MATERIAL=AL\n*STEP\n*FREQUENCY\n4\n"
-             "*BOUNDARY\nROOT, 1, 3\n*END STEP\n")
+             "*BOUNDARY\nroot, 1, 3\n*END STEP\n")
     path.write_text(text)
     run = subprocess.run(["ccx", "-i", "bar"], cwd=path.parent, capture_output=True,
                          text=True, timeout=300, check=False)
@@ -117,3 +118,44 @@ def test_calculix_runs_the_written_deck_to_the_same_frequencies(tmp_path):
     rows = re.findall(r"^\s+(\d+)\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s*$", table, re.MULTILINE)
     ref = np.array([float(r[3]) for r in rows[:4]])
     np.testing.assert_allclose(native.frequencies_hz[:4], ref, rtol=3e-5)
+
+
+BOOM = """name: boom
+geometry: {GEOMETRY}
+material: {E: 2.1e11, nu: 0.3, rho: 7850}
+interfaces:
+  - {name: foot, selector: {type: group, name: bore_foot}, origin: [0.05, 0, 0]}
+  - {name: tip, selector: {type: group, name: bore_tip}, origin: [0.55, 0, 0]}
+reference: foot
+modes: {count: 4, craig_bampton: true}
+"""
+BOX = ("{type: solid, recipe: box_section, params: {length: 0.6, b: 0.1, h: 0.08, wall: 0.01, "
+       "end_plates: true, cross_bores: [{name: foot, x: 0.05, radius: 0.015, axis: z}, "
+       "{name: tip, x: 0.55, radius: 0.015, axis: z}]}, mesh_size: 0.02}")
+
+
+def test_the_groups_a_spec_selects_go_out_as_node_sets_and_select_again(tmp_path):
+    """A boom whose pins are gmsh groups (bore_foot, bore_tip): the written .inp names
+    their nodes (and the interfaces'), so the spec reads it back unchanged but for its
+    geometry, to the same link."""
+    from pipeline.invariants.mesh_export import node_sets, write_link_mesh
+    from pipeline.workflow.link_build import reduce_spec
+    from pipeline.workflow.link_spec import load_link_spec
+
+    def reduce(geometry, name):
+        p = tmp_path / f"{name}.yaml"
+        p.write_text(BOOM.replace("{GEOMETRY}", geometry))
+        return reduce_spec(load_link_spec(p), tmp_path, tmp_path / f"links_{name}")[0]
+
+    native = reduce(BOX, "native")
+    sets = node_sets(native)
+    assert list(sets) == ["bore_foot", "foot", "bore_tip", "tip"]
+    assert sets["bore_foot"] is sets["foot"] and sets["bore_foot"].size > 20
+    write_link_mesh(native, tmp_path / "boom.inp")
+    back = reduce("{type: mesh, path: boom.inp, units: m}", "back")
+    for a, b in zip(node_sets(back).values(), sets.values(), strict=True):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_allclose(back.frequencies_hz, native.frequencies_hz, rtol=1e-9)
+    for name in ("C", "Cp", "Cpp"):
+        a, b = getattr(back, name), getattr(native, name)
+        assert np.abs(a - b).max() <= 1e-10 * np.abs(b).max(), name
