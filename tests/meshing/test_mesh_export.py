@@ -161,6 +161,7 @@ def test_the_groups_a_spec_selects_go_out_as_node_sets_and_select_again(tmp_path
         assert np.abs(a - b).max() <= 1e-10 * np.abs(b).max(), name
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(__import__("shutil").which("ccx") is None,
                     reason="CalculiX (apt calculix-ccx) absent")
 def test_calculix_gives_the_box_section_booms_frequencies_on_its_written_set(tmp_path):
