@@ -89,7 +89,12 @@ def run_calculix(work: Path, deck: str, job: str = "box") -> str:
 def calculix_frequencies(tmp_path: Path, box, n: int = 6, parts: dict | None = None
                           ) -> np.ndarray:
     """Clamped frequencies, Hz, of CalculiX's C3D10 model of the same mesh (mm, t, s)."""
-    dat = run_calculix(tmp_path / "ccx", calculix_deck(box, n=n, parts=parts))
+    return dat_frequencies(run_calculix(tmp_path / "ccx", calculix_deck(box, n=n, parts=parts)),
+                           n)
+
+
+def dat_frequencies(dat: str, n: int) -> np.ndarray:
+    """The first n frequencies, Hz, of the eigenvalue table of a CalculiX .dat file."""
     table = dat.split("E I G E N V A L U E   O U T P U T")[1]
     rows = re.findall(r"^\s+(\d+)\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s*$", table, re.MULTILINE)
     return np.array([float(r[3]) for r in rows[:n]])

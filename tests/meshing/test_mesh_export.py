@@ -4,8 +4,14 @@ gmsh-made link exported as .inp and re-imported gives the native artifact's inva
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from calculix_box import dat_frequencies, run_calculix
 
 pytest.importorskip("gmsh")
 
@@ -93,9 +99,6 @@ def test_calculix_runs_the_written_deck_to_the_same_frequencies(tmp_path):
     written): its clamped frequencies are the link's (the rbe2 root is that clamp; the
     rbe3 tip adds no stiffness), to the 3e-5 the two codes' elements differ by on the box
     of test_mesh_import."""
-    import re
-    import subprocess
-
     from pipeline.invariants.mesh_export import write_link_mesh
 
     native = _reduce(tmp_path, NATIVE, "native")
@@ -110,13 +113,7 @@ def test_calculix_runs_the_written_deck_to_the_same_frequencies(tmp_path):
     text += ("*MATERIAL, NAME=AL\n*ELASTIC\n7.0e10, 0.33\n*DENSITY\n2700.\n"
              "*SOLID SECTION, ELSET=BAR, MATERIAL=AL\n*STEP\n*FREQUENCY\n4\n"
              "*BOUNDARY\nroot, 1, 3\n*END STEP\n")
-    path.write_text(text)
-    run = subprocess.run(["ccx", "-i", "bar"], cwd=path.parent, capture_output=True,
-                         text=True, timeout=300, check=False)
-    assert run.returncode == 0, run.stdout[-2000:]
-    table = (path.parent / "bar.dat").read_text().split("E I G E N V A L U E   O U T P U T")[1]
-    rows = re.findall(r"^\s+(\d+)\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s*$", table, re.MULTILINE)
-    ref = np.array([float(r[3]) for r in rows[:4]])
+    ref = dat_frequencies(run_calculix(path.parent, text, "bar"), 4)
     np.testing.assert_allclose(native.frequencies_hz[:4], ref, rtol=3e-5)
 
 
@@ -171,9 +168,6 @@ def test_calculix_gives_the_box_section_booms_frequencies_on_its_written_set(tmp
     rbe3 here, adds no stiffness). Measured: 3.7e-5, 4.2e-6, 9.0e-6, 1.7e-6 (the bores'
     elements have curved sides, midside nodes on the circle, which the two codes integrate
     by different rules; the straight bar agrees to 2.4e-7); bounded at 1e-4."""
-    import re
-    import subprocess
-
     from pipeline.invariants.mesh_export import write_link_mesh
     from pipeline.workflow.link_build import reduce_spec
     from pipeline.workflow.link_spec import load_link_spec
@@ -184,15 +178,10 @@ def test_calculix_gives_the_box_section_booms_frequencies_on_its_written_set(tmp
                  .replace("modes: {count: 4, craig_bampton: true}", "modes: {count: 4}"))
     native = reduce_spec(load_link_spec(p), tmp_path, tmp_path / "links")[0]
     path = write_link_mesh(native, tmp_path / "ccx" / "boom.inp")
-    path.write_text(path.read_text() + "*MATERIAL, NAME=STEEL\n*ELASTIC\n2.1e11, 0.3\n"
-                    "*DENSITY\n7850.\n*SOLID SECTION, ELSET=BOOM, MATERIAL=STEEL\n*STEP\n"
-                    "*FREQUENCY\n4\n*BOUNDARY\nbore_foot, 1, 3\n*END STEP\n")
-    run = subprocess.run(["ccx", "-i", "boom"], cwd=path.parent, capture_output=True,
-                         text=True, timeout=300, check=False)
-    assert run.returncode == 0, run.stdout[-2000:]
-    table = (path.parent / "boom.dat").read_text().split("E I G E N V A L U E   O U T P U T")[1]
-    rows = re.findall(r"^\s+(\d+)\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s*$", table, re.MULTILINE)
-    ref = np.array([float(r[3]) for r in rows[:4]])
+    ref = dat_frequencies(run_calculix(path.parent, path.read_text() + (
+        "*MATERIAL, NAME=STEEL\n*ELASTIC\n2.1e11, 0.3\n*DENSITY\n7850.\n"
+        "*SOLID SECTION, ELSET=BOOM, MATERIAL=STEEL\n*STEP\n*FREQUENCY\n4\n"
+        "*BOUNDARY\nbore_foot, 1, 3\n*END STEP\n"), "boom"), 4)
     # the two bending modes (Euler-Bernoulli with a full clamp at the bore: 284 and
     # 343 Hz; held at the bore's surface only, the root is softer)
     assert 150.0 < ref[0] < ref[1] < 300.0
