@@ -77,11 +77,13 @@ def node_sets(link: ReducedLink) -> dict[str, np.ndarray]:
     the written file) and by the interface; empty for an artifact made before they were
     kept."""
     sets: dict[str, np.ndarray] = {}
+    taken: set[str] = set()  # an FE tool's set names ignore case
     for row in link.meta.get("interface_nodes", ()):
         nodes = np.asarray(row["nodes"], dtype=np.int64)
         for name in (row["group"], row["interface"]):
-            if name and name.upper() not in {k.upper() for k in sets}:
+            if name and name.upper() not in taken:
                 sets[name] = nodes
+                taken.add(name.upper())
     return sets
 
 

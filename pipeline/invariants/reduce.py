@@ -331,8 +331,7 @@ def _interface_nodes(request, interfaces) -> list[dict]:
     (:mod:`pipeline.invariants.mesh_export`), so the same spec reads it back."""
     from pipeline.meshing.selectors import PhysicalGroup
 
-    selectors = {s[0]: s[1] for s in (i if isinstance(i, tuple) else (i.name, i.selector)
-                                      for i in request.interfaces)}
+    selectors = {s.name: s.selector for s in request.interfaces}
     out = []
     for itf in interfaces:
         sel = selectors.get(itf.name)

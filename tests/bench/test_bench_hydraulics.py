@@ -52,10 +52,12 @@ def prescribed(data: dict, analysis: str, tables: dict[str, str]) -> dict:
                        **{c: {"type": "table", "file": f, "interpolation": "spline"}
                           for c, f in tables.values()}}
     driven = {c for c, _ in tables.values()}
-    initial = data.get("initial", {})
+    initial = dict(data.get("initial", {}))  # a copy: ``data`` is left as it was read
     for group in ("coordinates", "velocities"):  # a driven coordinate starts on its table
         if group in initial:
             initial[group] = {k: x for k, x in initial[group].items() if k not in driven}
+    if initial:
+        data["initial"] = initial
     data["analyses"] = [a for a in data["analyses"] if a["name"] == analysis]
     for key in ("outputs", "quick"):
         data.pop(key, None)
