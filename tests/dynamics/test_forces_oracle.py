@@ -73,6 +73,10 @@ def _elements():
                                       feedforward=0.3), spool_time_constant=0.02,
                           counterbalance={"side": "b", "setting": 80e5, "pilot_ratio": 3.0},
                           pump_flow=1e-4, relief_pressure=150e5, **CYL),
+        HydraulicCylinder("lagged", ("ground", "body"), ("coupler", "B"), command=-0.3,
+                          counterbalance={"side": "a", "setting": 60e5, "pilot_ratio": 4.0,
+                                          "time_constant": 0.03,
+                                          "closing_time_constant": 0.01}, **CYL),
     )
 
 

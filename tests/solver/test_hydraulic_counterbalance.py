@@ -10,7 +10,8 @@ the setting. References built here, independent of the package's equations:
 - holding: with no pilot (psi = 0) and the directional valve open for lowering, the mass
   does not come down; it settles where chamber a, sealed, carries the load and the full
   supply pressure on the annulus, at the stroke the closed-form oil law gives;
-- without the valve, the same command lowers the mass.
+- without the valve, the same command lowers the mass;
+- a valve whose spool lags its pilot: the same model with the opening a sixth state.
 """
 
 from __future__ import annotations
@@ -51,29 +52,38 @@ CB = {"side": "a", "setting": 250e5, "pilot_ratio": 4.0, "nominal_flow": 1e-3,
 VISCOUS = 2e4  # N s/m: seal friction, so that the oil spring's ringing settles
 
 
-def _reference(command, t_end, te, cb=CB):
-    """The lift with its counterbalance valve in five states (module docstring)."""
+def _reference(command, t_end, te, cb=CB, viscous=VISCOUS):
+    """The lift with its counterbalance valve in five states (module docstring); with a
+    lagged valve (cb's time constants) its opening is a sixth."""
     kv = QNOM / np.sqrt(DPNOM)
     kcb = cb["nominal_flow"] / np.sqrt(cb["nominal_drop"])
+    tau_open = cb.get("time_constant")
+    tau_close = cb.get("closing_time_constant") or tau_open
 
     def orifice(dp):
         return dp / (dp * dp + DPL * DPL) ** 0.25
 
     def rhs(t, y):
-        s, v, pa, pb, pc = y
+        s, v, pa, pb, pc = y[:5]
         u = float(np.clip(command.value(t), -1.0, 1.0))
         q_line = kv * (max(u, 0) * orifice(PS - pc) - max(-u, 0) * orifice(pc))
         qb = kv * (max(-u, 0) * orifice(PS - pb) - max(u, 0) * orifice(pb))
-        opening = np.clip((pa + cb["pilot_ratio"] * pb - cb["setting"])
-                          / cb["opening_range"], 0.0, 1.0)
+        wanted = np.clip((pa + cb["pilot_ratio"] * pb - cb["setting"])
+                         / cb["opening_range"], 0.0, 1.0)
+        opening = wanted if tau_open is None else y[5]
         q_cb = kcb * (orifice(max(pc - pa, 0.0)) - opening * orifice(pa - pc))
-        f = pa * AA - pb * AB - VISCOUS * v
-        return [v, f / MASS - G, BETA / (VA0 + AA * s) * (q_cb - AA * v),
-                BETA / (VB0 + AB * (STROKE - s)) * (qb + AB * v),
-                BETA / cb["line_volume"] * (q_line - q_cb)]
+        f = pa * AA - pb * AB - viscous * v
+        rates = [v, f / MASS - G, BETA / (VA0 + AA * s) * (q_cb - AA * v),
+                 BETA / (VB0 + AB * (STROKE - s)) * (qb + AB * v),
+                 BETA / cb["line_volume"] * (q_line - q_cb)]
+        if tau_open is not None:
+            rates.append((wanted - opening) / (tau_open if wanted > opening else tau_close))
+        return rates
 
-    sol = solve_ivp(rhs, (0.0, t_end), [S0, 0.0, PA0, PB0, 0.0], method="Radau", t_eval=te,
-                    rtol=1e-11, atol=[1e-13, 1e-12, 1e-4, 1e-4, 1e-4])
+    lag = tau_open is not None
+    sol = solve_ivp(rhs, (0.0, t_end), [S0, 0.0, PA0, PB0, 0.0] + [0.0] * lag,
+                    method="Radau", t_eval=te,
+                    rtol=1e-11, atol=[1e-13, 1e-12, 1e-4, 1e-4, 1e-4] + [1e-12] * lag)
     return sol.y.T
 
 
@@ -129,6 +139,48 @@ def test_without_pilot_the_valve_holds_the_load_against_an_open_valve():
     assert _run(free, te, 5e-4, 1e-4).q[-1, 0] < S0 - 0.02
 
 
+def test_a_lagged_valve_is_the_hand_written_model_with_its_opening_a_state():
+    """A counterbalance valve whose spool lags its pilot (opening 30 ms, closing 10 ms):
+    the lift lowered, then the directional valve closed again, so that the counterbalance
+    valve opens and partly closes. Stroke, pressures and the opening a_c against the
+    six-state model, second order in the step; the lag is visible (the mass ends 0.6 mm
+    higher than behind the instant valve)."""
+    command = SmoothStep(0.05, 0.15, 0.0, -0.5) + SmoothStep(0.35, 0.45, 0.0, 0.5)
+    cb = {**CB, "time_constant": 0.03, "closing_time_constant": 0.01}
+    te = np.linspace(0.0, 0.6, 61)
+    ref = _reference(command, 0.6, te, cb)
+    instant = _reference(command, 0.6, te)
+    assert ref[-1, 0] - instant[-1, 0] > 4e-4
+    assert ref[:, 5].max() > 0.85 and ref[-1, 5] < ref[:, 5].max() - 0.05  # opened, closed
+    errors = []
+    for h in (5e-4, 2.5e-4):
+        system, cyl = _lift(command, counterbalance=cb, viscous_friction=VISCOUS)
+        assert cyl.STATES == ("p_a", "p_b", "p_c", "a_c")
+        assert cyl.STATE_UNITS == ("Pa", "Pa", "Pa", "1")
+        r = _run(system, te, h, 1e-3)
+        p = np.column_stack([r.state(f"lift.{x}") for x in ("p_a", "p_b", "p_c")])
+        errors.append((np.abs(r.q[:, 0] - ref[:, 0]).max(), np.abs(p - ref[:, 2:5]).max(),
+                       np.abs(r.state("lift.a_c") - ref[:, 5]).max()))
+    assert r.verdict == "ok", r.report
+    (ds1, dp1, da1), (ds2, dp2, da2) = errors
+    assert ds2 < 3e-7 and dp2 < 1e3 and da2 < 5e-5, errors  # m, Pa, 1
+    assert ds1 / ds2 > 3.0 and dp1 / dp2 > 3.0 and da1 / da2 > 3.0, errors
+
+
+def test_a_lagged_valve_starts_open_as_its_pressures_call_for():
+    """The opening's start value: the instant valve's at the start pressures (closed
+    below the setting, part-open above it), closed behind a held chamber."""
+    cb = {**CB, "time_constant": 0.02}
+    _, cyl = _lift(0.0, counterbalance=cb)
+    assert cyl.initial_states()[-1] == 0.0  # p_a + 4 p_b = 57 bar, below the setting
+    pa = 300e5
+    _, cyl = _lift(0.0, counterbalance=cb, initial_pressures=(pa, PB0))
+    assert cyl.initial_states()[-1] == pytest.approx(
+        (pa + CB["pilot_ratio"] * PB0 - CB["setting"]) / CB["opening_range"], rel=1e-14)
+    _, cyl = _lift(0.0, counterbalance=cb, initial_pressures=("hold", PB0))
+    assert cyl.initial_states()[-1] == 0.0
+
+
 @pytest.mark.parametrize("cb, match", [
     ({**CB, "side": "c"}, "counterbalance: side: expected 'a'"),
     ({**CB, "setting": -1.0}, "counterbalance: setting: expected a number > 0"),
@@ -136,6 +188,9 @@ def test_without_pilot_the_valve_holds_the_load_against_an_open_valve():
     ({**CB, "orifice": 1.0}, "counterbalance: unknown field 'orifice'; its fields"),
     ({"side": "a"}, r"counterbalance: missing field\(s\) \['setting'\]"),
     ("strong", "counterbalance: expected a CounterbalanceValve or its fields"),
+    ({**CB, "time_constant": 0.0}, "counterbalance: time_constant: expected seconds > 0"),
+    ({**CB, "closing_time_constant": 0.01},
+     "counterbalance: closing_time_constant: the spool has no dynamics without time_"),
 ])
 def test_a_bad_counterbalance_valve_is_refused_naming_its_field(cb, match):
     with pytest.raises(ConfigError, match="force element 'lift': " + match):

@@ -197,8 +197,8 @@ def test_a_pid_may_measure_a_chamber_pressure(tmp_path):
 
 
 def test_air_and_a_counterbalance_valve_are_written_in_the_workflow(tmp_path):
-    """``air_content`` and ``counterbalance: {...}`` build the element the Python API
-    builds; a bad valve field is named at its line."""
+    """``air_content`` and ``counterbalance: {...}`` (with its spool's lag) build the
+    element the Python API builds; a bad valve field is named at its line."""
     from pipeline.dynamics.forces.hydraulics import CounterbalanceValve
     from pipeline.workflow.build import build_machine
     from pipeline.workflow.load import load_workflow
@@ -213,6 +213,13 @@ def test_air_and_a_counterbalance_valve_are_written_in_the_workflow(tmp_path):
     bad = text.replace("pilot_ratio: 4.0", "pilot_ration: 4.0")
     with pytest.raises(ConfigError, match=r"lift\.yaml:\d+: forces\[0\].*counterbalance: "
                                           r"unknown field 'pilot_ration'"):
+        build_machine(load_workflow(_write(tmp_path, bad)), tmp_path / "links")
+    lagged = text.replace("pilot_ratio: 4.0", "pilot_ratio: 4.0, time_constant: 0.03")
+    m = build_machine(load_workflow(_write(tmp_path, lagged)), tmp_path / "links")
+    assert m.system.forces[0].STATES == ("p_a", "p_b", "p_c", "a_c")
+    bad = text.replace("pilot_ratio: 4.0", "pilot_ratio: 4.0, time_constant: -0.03")
+    with pytest.raises(ConfigError, match=r"lift\.yaml:\d+: forces\[0\].*counterbalance: "
+                                          r"time_constant: expected seconds > 0"):
         build_machine(load_workflow(_write(tmp_path, bad)), tmp_path / "links")
 
 

@@ -56,7 +56,11 @@ into the chamber (p its pressure): freely in through its check valve, out only w
 chamber's pressure plus the pilot ratio psi times the other chamber's (the pilot, which
 the directional valve raises to lower the load) exceeds the setting p_set, fully open
 over dp_open. So an overrunning load is held against an open directional valve and
-lowered at the pace the pilot meters; p_c' = beta / V_c (Q_port - Q_cb).
+lowered at the pace the pilot meters; p_c' = beta / V_c (Q_port - Q_cb). Its spool opens
+at once (a as above), or, with a ``time_constant`` tau_o (and a ``closing_time_constant``
+tau_c), lags behind: the opening is then one more state, a' = (a_s - a) / tau, a_s the
+clipped opening above and tau = tau_o while it opens (a_s > a), tau_c while it closes (a
+damping orifice on the pilot slows a real valve's opening more than its closing).
 
 Force pushing the markers apart: F = p_a A_a - p_b A_b - c s' - F_c tanh(s' / v_s) (seal
 friction, viscous and Coulomb; the Coulomb part smoothed over ``friction_velocity`` v_s),
@@ -85,8 +89,8 @@ area over the valve's flow per unit command), so the loop need not lag to move.
 Not modelled (yet): the cushions' throttling near the ends (without end stops a stroke
 outside [0, stroke] is reported by the run's checks), cavitation (pressures below -1 bar
 gauge are reported), the air's dissolving at higher pressure (taken as staying
-undissolved, the soft limit), a counterbalance valve's own spool dynamics (it opens at
-once with its pilot).
+undissolved, the soft limit), a counterbalance valve's second-order spool dynamics (its
+mass and spring: the lag above is first order).
 
 The physics (flows, pressure rates, force) is written once, as the compiled functions
 below; the element's methods evaluate them (:class:`~pipeline.dynamics.forces.base.
@@ -120,8 +124,8 @@ PRESSURES = ("p_a", "p_b")
 # par columns of the packed element
 _AA, _AB, _L0, _STROKE, _VA0, _VB0, _BETA, _PS, _PT, _KV, _DPL, _LEAK, _VISC, _COUL, _VS, \
     _QP, _PR, _KR, _VS0, _SPOOL, _TAU, _WV, _ZV, _OVL, _KE, _CE, _AIR, \
-    _CBS, _KCB, _PSET, _PSI, _DPO, _VC0, \
-    _PID, _KP, _KI, _KD, _UMIN, _UMAX, _TT, _MEAS, _KFF, _MMK, _MCOMP = range(44)
+    _CBS, _KCB, _PSET, _PSI, _DPO, _VC0, _TCO, _TCC, \
+    _PID, _KP, _KI, _KD, _UMIN, _UMAX, _TT, _MEAS, _KFF, _MMK, _MCOMP = range(46)
 #: Pa: atmospheric pressure, the reference of the gauge pressures and of the air content
 ATMOSPHERE = 101325.0
 #: _MEAS of a controller on a marker's position (its point _MMK, its component _MCOMP)
@@ -241,7 +245,13 @@ class CounterbalanceValve:
     pressure plus ``pilot_ratio`` times the other chamber's (the pilot) exceeds
     ``setting`` (Pa), fully over ``opening_range`` (Pa). Flow through it: ``nominal_flow``
     (m^3/s) at ``nominal_drop`` (Pa), fully open. The line between the two valves holds
-    ``line_volume`` (m^3) at ``initial_pressure`` (Pa gauge) at the start."""
+    ``line_volume`` (m^3) at ``initial_pressure`` (Pa gauge) at the start.
+
+    Its spool follows its pilot at once (None), or with a first-order lag: the opening a
+    is then a state, a' = (a_s - a) / tau, a_s the opening its pressures call for (module
+    docstring), tau ``time_constant`` (s) while it opens (a_s > a) and
+    ``closing_time_constant`` (s; default the same) while it closes: a real valve's
+    damping orifice slows its opening more than its closing."""
 
     side: str
     setting: float
@@ -251,6 +261,8 @@ class CounterbalanceValve:
     opening_range: float = 10e5
     line_volume: float = 1e-4
     initial_pressure: float = 0.0
+    time_constant: float | None = None
+    closing_time_constant: float | None = None
 
     def __post_init__(self):
         if self.side not in ("a", "b"):
@@ -268,13 +280,37 @@ class CounterbalanceValve:
                     or (key == "pilot_ratio" and x < 0):
                 raise ConfigError(f"counterbalance: {key}: expected a finite number"
                                   f"{' >= 0' if key == 'pilot_ratio' else ''}, got {x!r}")
+        for key in ("time_constant", "closing_time_constant"):
+            x = getattr(self, key)
+            if x is not None and (isinstance(x, bool) or not isinstance(x, int | float)
+                                  or not x > 0 or not math.isfinite(x)):
+                raise ConfigError(f"counterbalance: {key}: expected seconds > 0 (or none: "
+                                  f"the spool follows its pilot at once), got {x!r}")
+        if self.closing_time_constant is not None and self.time_constant is None:
+            raise ConfigError("counterbalance: closing_time_constant: the spool has no "
+                              "dynamics without time_constant (its opening lag); give "
+                              "time_constant too")
+
+    @property
+    def lagged(self) -> bool:
+        """Is the spool's opening a state (a first-order lag behind its pilot)?"""
+        return self.time_constant is not None
+
+    def static_opening(self, pressure: float, pilot: float) -> float:
+        """The opening a_s (0..1) at the chamber's ``pressure`` and the ``pilot`` (the
+        other chamber's), Pa gauge."""
+        return min(max((pressure + self.pilot_ratio * pilot - self.setting)
+                       / self.opening_range, 0.0), 1.0)
 
     def parameters(self) -> list[float]:
         """(side 1 or 2, K = Q_nom / sqrt(dp_nom), setting, pilot ratio, opening range,
-        line volume): the packed element's counterbalance columns."""
+        line volume, opening and closing time constants, 0 without a lag): the packed
+        element's counterbalance columns."""
+        tau = self.time_constant or 0.0
         return [1.0 if self.side == "a" else 2.0,
                 self.nominal_flow / math.sqrt(self.nominal_drop), self.setting,
-                self.pilot_ratio, self.opening_range, self.line_volume]
+                self.pilot_ratio, self.opening_range, self.line_volume, tau,
+                self.closing_time_constant or tau]
 
 
 @dataclass(frozen=True)
@@ -342,13 +378,20 @@ class HydraulicCylinder(CompiledElement, LineElement):
         spool's position x_v (and rate v_v) when it has dynamics."""
         return ("p_a", "p_b") + (("p_s",) if self.pump_flow is not None else ()) \
             + (("p_c",) if self.counterbalance is not None else ()) \
+            + (("a_c",) if self.counterbalance_lagged else ()) \
             + ("x_v", "v_v")[:self.spool_order] + (("pid",) if self.controlled else ())
 
     @property
     def STATE_UNITS(self) -> tuple[str, ...]:
         return ("Pa",) * (2 + (self.pump_flow is not None)
                           + (self.counterbalance is not None)) \
+            + ("1",) * self.counterbalance_lagged \
             + ("1", "1/s")[:self.spool_order] + (("1",) if self.controlled else ())
+
+    @property
+    def counterbalance_lagged(self) -> bool:
+        """Has the cylinder a counterbalance valve whose opening is a state (a_c)?"""
+        return self.counterbalance is not None and self.counterbalance.lagged
 
     @property
     def controlled(self) -> bool:
@@ -453,7 +496,7 @@ class HydraulicCylinder(CompiledElement, LineElement):
                 0.1 * ab * self.stroke if self.dead_volume_b is None else self.dead_volume_b)
 
     def parameters(self) -> np.ndarray:
-        """(44,) the packed parameters (the ``par`` row of the compiled form)."""
+        """(46,) the packed parameters (the ``par`` row of the compiled form)."""
         aa, ab = self.areas
         va, vb = self.dead_volumes
         pump = self.pump_flow is not None
@@ -469,7 +512,7 @@ class HydraulicCylinder(CompiledElement, LineElement):
                          self.spool_overlap, self.end_stiffness or 0.0, self.end_damping,
                          self.air_content,
                          *(self.counterbalance.parameters() if self.counterbalance is not None
-                           else [0.0] * 6),
+                           else [0.0] * 8),
                          *self._pid_parameters()], dtype=float)
 
     def _pid_parameters(self) -> tuple:
@@ -537,18 +580,24 @@ class HydraulicCylinder(CompiledElement, LineElement):
                 None)
 
     def initial_states(self) -> np.ndarray:
-        """(p_a, p_b[, p_s][, p_c][, x_v[, v_v]][, pid]) at the start: pressures in Pa, NaN
-        for a ``hold``
-        pressure (found at the start so that the machine is at rest:
-        pipeline.dynamics.held_states); the spool at rest where the command at t = 0 puts
-        it."""
+        """(p_a, p_b[, p_s][, p_c][, a_c][, x_v[, v_v]][, pid]) at the start: pressures in
+        Pa, NaN for a ``hold`` pressure (found at the start so that the machine is at
+        rest: pipeline.dynamics.held_states); a lagged counterbalance valve open as the
+        start pressures call for (closed on a held chamber); the spool at rest where the
+        command at t = 0 puts it."""
         from pipeline.dynamics.forces.loads import history_value
 
         p = [np.nan if x == "hold" else x for x in self.initial_pressures]
         if self.pump_flow is not None:
             p.append(self.initial_supply_pressure)
-        if self.counterbalance is not None:
-            p.append(self.counterbalance.initial_pressure)
+        cb = self.counterbalance
+        if cb is not None:
+            p.append(cb.initial_pressure)
+        if self.counterbalance_lagged:  # open as its start pressures call for; a held
+            # chamber's valve is closed (it holds)
+            pc, pilot = (p[0], p[1]) if cb.side == "a" else (p[1], p[0])
+            p.append(0.0 if np.isnan(pc) or np.isnan(pilot) else
+                     cb.static_opening(pc, pilot))
         if self.spool_order:  # a controller's spool starts centred
             u = 0.0 if self.controlled else \
                 min(max(history_value(self.command, 0.0, self.name), -1.0), 1.0)
@@ -558,10 +607,11 @@ class HydraulicCylinder(CompiledElement, LineElement):
         return np.array(p, dtype=float)
 
     def state_scales(self) -> np.ndarray:
-        """A bar for a pressure; the spool's whole travel (and, second order, that per
-        1 / w_v)."""
+        """A bar for a pressure; a counterbalance valve's full opening; the spool's whole
+        travel (and, second order, that per 1 / w_v)."""
         return np.array([PRESSURE_UNIT] * (2 + (self.pump_flow is not None)
                                            + (self.counterbalance is not None))
+                        + [1.0] * self.counterbalance_lagged
                         + [1.0, 2 * math.pi * (self.spool_frequency or 0.0)][:self.spool_order]
                         + [1.0] * self.controlled)
 
@@ -725,17 +775,21 @@ def valve_rates(par, u, length, sd, z, o, zd):
     supply line's, the spool's) at the command u, length (m) and stroke rate sd (m/s)."""
     pump = 1 if par[_QP] > 0.0 else 0
     cb = 1 if par[_CBS] > 0.0 else 0
-    k = o + 2 + pump + cb  # the spool's states
+    lag = 1 if par[_TCO] > 0.0 else 0  # the counterbalance valve's opening a state
+    c = o + 2 + pump  # the counterbalance line's state, then its opening's
+    k = c + cb + lag  # the spool's states
     order = int(par[_SPOOL])
     x = u if order == 0 else z[k]
-    out = np.empty(4)
+    out = np.empty(5)
     pressure_rates(par, length, sd, z[o], z[o + 1], z[o + 2] if pump else 0.0,
-                   z[o + 2 + pump] if cb else 0.0, x, out)
+                   z[c] if cb else 0.0, z[c + 1] if lag else 0.0, x, out)
     zd[o], zd[o + 1] = out[0], out[1]
     if pump:
         zd[o + 2] = out[2]
     if cb:
-        zd[o + 2 + pump] = out[3]
+        zd[c] = out[3]
+    if lag:
+        zd[c + 1] = out[4]
     u = min(max(u, -1.0), 1.0)
     if order == 1:
         zd[k] = (u - z[k]) / par[_TAU]
@@ -785,26 +839,39 @@ def command_rates(par, command, rate, length, sd, ym, ymd, q, v, z, o, zd):
 def _state_count(par) -> int:
     """The element's number of states (STATES)."""
     return 2 + (1 if par[_QP] > 0.0 else 0) + (1 if par[_CBS] > 0.0 else 0) \
-        + int(par[_SPOOL]) + (1 if par[_PID] > 0 else 0)
+        + (1 if par[_TCO] > 0.0 else 0) + int(par[_SPOOL]) + (1 if par[_PID] > 0 else 0)
 
 
 @njit(cache=True)
-def counterbalance_flow(par, pc, pl, pilot):
+def counterbalance_opening(par, pc, pilot):
+    """The opening a_s = clip((pc + psi pilot - p_set) / dp_open, 0, 1) the chamber's
+    pressure pc and the ``pilot`` (Pa) call for (module docstring)."""
+    return min(max((pc + par[_PSI] * pilot - par[_PSET]) / par[_DPO], 0.0), 1.0)
+
+
+@njit(cache=True)
+def counterbalance_flow(par, pc, pl, a):
     """Flow (m^3/s) from the line (pressure pl, Pa) into the chamber (pc) through the
-    counterbalance valve, the other chamber's pressure its ``pilot`` (module docstring):
-    the check valve's K f(max(pl - pc, 0)) less the relief's K a f(pc - pl), its opening
-    a = clip((pc + psi pilot - p_set) / dp_open, 0, 1)."""
+    counterbalance valve at its opening ``a`` (module docstring): the check valve's
+    K f(max(pl - pc, 0)) less the relief's K a f(pc - pl)."""
     lam = par[_DPL]
-    a = min(max((pc + par[_PSI] * pilot - par[_PSET]) / par[_DPO], 0.0), 1.0)
     return par[_KCB] * (_orifice(max(pl - pc, 0.0), lam) - a * _orifice(pc - pl, lam))
 
 
 @njit(cache=True)
-def pressure_rates(par, length, sd, pa, pb, psup, pc, x, out):
-    """out (4,) = (p_a', p_b', p_s', p_c'), Pa/s, at the length (m), stroke rate sd (m/s),
-    pressures pa, pb, with a pump of given flow the supply line's psup, with a
-    counterbalance valve its line's pc (Pa), and spool position x (module docstring);
-    p_s' (p_c') is 0 without that pump (valve)."""
+def counterbalance_lag(par, a, target):
+    """a' (1/s) of a lagged counterbalance valve's opening a towards ``target`` (its
+    opening time constant while it opens, its closing one while it closes)."""
+    return (target - a) / (par[_TCO] if target > a else par[_TCC])
+
+
+@njit(cache=True)
+def pressure_rates(par, length, sd, pa, pb, psup, pc, ac, x, out):
+    """out (5,) = (p_a', p_b', p_s', p_c', a_c'), Pa/s and 1/s, at the length (m), stroke
+    rate sd (m/s), pressures pa, pb, with a pump of given flow the supply line's psup,
+    with a counterbalance valve its line's pc (Pa) and, lagged, its opening ac (unused
+    where it opens at once), and spool position x (module docstring); p_s' (p_c', a_c')
+    is 0 without that pump (valve, lag)."""
     s = length - par[_L0]
     up, un = opening(par, x), opening(par, -x)
     pump = par[_QP] > 0.0
@@ -817,15 +884,21 @@ def pressure_rates(par, length, sd, pa, pb, psup, pc, x, out):
     qpa, qpb = up * _orifice(ps - wa, lam), un * _orifice(ps - wb, lam)
     qa = par[_KV] * (qpa - un * _orifice(wa - pt, lam))
     qb = par[_KV] * (qpb - up * _orifice(wb - pt, lam))
-    out[3] = 0.0
+    out[3] = out[4] = 0.0
+    lagged = par[_TCO] > 0.0
+    target = 0.0
     if side == 1:  # port A feeds the line; the counterbalance valve feeds chamber a
-        q = counterbalance_flow(par, pa, pc, pb)
+        target = counterbalance_opening(par, pa, pb)
+        q = counterbalance_flow(par, pa, pc, ac if lagged else target)
         out[3] = effective_bulk_modulus(par, pc) / par[_VC0] * (qa - q)
         qa = q
     elif side == 2:
-        q = counterbalance_flow(par, pb, pc, pa)
+        target = counterbalance_opening(par, pb, pa)
+        q = counterbalance_flow(par, pb, pc, ac if lagged else target)
         out[3] = effective_bulk_modulus(par, pc) / par[_VC0] * (qb - q)
         qb = q
+    if side > 0 and lagged:
+        out[4] = counterbalance_lag(par, ac, target)
     ql = par[_LEAK] * (pa - pb)
     # a stroke beyond the ends (into the end stops, or without them: the run's checks
     # report it) must not empty a chamber: its volume is kept above a tenth of its dead
