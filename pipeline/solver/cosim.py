@@ -1,8 +1,9 @@
 """Co-simulation: blocks advanced at a macro step beside the machine, each an FMU (a
-controller or a circuit block exported by another tool, FMI 2 or FMI 3 co-simulation, run
-through fmpy, or FMI 3 model exchange, whose states this master integrates over each
-macro step with its inputs held) or a built-in sampled controller (:class:`SampledPID`, a
-digital PID's rhythm).
+controller or a circuit block exported by another tool, FMI 2 or FMI 3, run through fmpy:
+co-simulation, or model exchange, whose states this master integrates over each macro
+step with its inputs held, locating and handling its state and time events,
+:mod:`pipeline.solver.model_exchange`) or a built-in sampled controller
+(:class:`SampledPID`, a digital PID's rhythm).
 
 The master loop, at each communication point t_k of the macro step H:
 
@@ -43,7 +44,6 @@ there. The estimate costs the co-simulation once more at twice the communication
 
 from __future__ import annotations
 
-import ctypes
 import logging
 import math
 from collections.abc import Mapping, Sequence
@@ -55,6 +55,7 @@ import numpy as np
 
 from pipeline.core.errors import ConfigError
 from pipeline.core.progress import progress_counter
+from pipeline.solver.model_exchange import ExchangeFailed
 
 logger = logging.getLogger(__name__)
 
@@ -64,8 +65,8 @@ __all__ = ["BLOCK", "FMU", "SampledPID", "block_names", "cosimulate", "coupling_
 
 @dataclass(frozen=True)
 class FMU:
-    """An FMU (FMI 2 or 3 co-simulation, FMI 3 model exchange without state events) in a
-    co-simulation: its file ``path``, its ``inputs``
+    """An FMU (FMI 2 or 3, co-simulation or model exchange) in a co-simulation: its file
+    ``path``, its ``inputs``
     ({FMU input variable: the machine's signal}, :func:`signal`), its ``outputs`` ({FMU
     output variable: the Simulator input it drives}) and the start values of its
     ``parameters`` ({variable: value}, set before its initialisation); ``name``, by which
@@ -263,19 +264,16 @@ class _Slave:
         except Exception as exc:  # noqa: BLE001 - any unreadable FMU: one line naming it
             raise ConfigError(f"{self.where}: not a readable FMU ({exc})") from None
         self.fmi3 = md.fmiVersion.startswith("3.")
-        #: a model-exchange FMU: its states integrated here (FMI 3, without state events)
-        self.exchange = md.coSimulation is None
-        if self.exchange and (md.modelExchange is None or not self.fmi3):
-            raise ConfigError(f"{self.where}: has no co-simulation interface" + (
-                " (FMI 2 model exchange only); export it for co-simulation, or as FMI 3 model "
-                "exchange" if md.modelExchange is not None else ""))
-        if self.exchange and md.numberOfEventIndicators:
-            raise ConfigError(f"{self.where}: a model-exchange FMU with "
-                              f"{md.numberOfEventIndicators} event indicator(s): its state "
-                              "events are not handled here; export it for co-simulation")
         if not (self.fmi3 or md.fmiVersion.startswith("2.")):
             raise ConfigError(f"{self.where}: FMI {md.fmiVersion}; this master runs FMI 2 "
-                              "and FMI 3 co-simulation FMUs")
+                              "and FMI 3 FMUs (co-simulation or model exchange)")
+        #: a model-exchange FMU: its states integrated here, its events handled
+        #: (pipeline.solver.model_exchange)
+        self.exchange = md.coSimulation is None
+        if self.exchange and md.modelExchange is None:
+            raise ConfigError(f"{self.where}: has neither a co-simulation nor a "
+                              "model-exchange interface")
+        self.me = None
         variables = {v.name: v for v in md.modelVariables}
 
         def refs(names, causalities, what):
@@ -315,8 +313,10 @@ class _Slave:
         self.folder = extract(str(path))
         self.slave, self.started = None, False
         try:
-            if self.exchange:
+            if self.exchange and self.fmi3:
                 from fmpy.fmi3 import FMU3Model as Slave
+            elif self.exchange:
+                from fmpy.fmi2 import FMU2Model as Slave
             elif self.fmi3:
                 from fmpy.fmi3 import FMU3Slave as Slave
             else:
@@ -336,12 +336,18 @@ class _Slave:
                 self.slave.enterInitializationMode()
             self._set_inputs(sim)
             self.slave.exitInitializationMode()
-            if self.exchange:
-                self._continuous_time(md.numberOfContinuousStates)
             self.started = True
+            if self.exchange:
+                from pipeline.solver.model_exchange import ModelExchange
+
+                self.me = ModelExchange(self.slave, self.fmi3, md.numberOfContinuousStates,
+                                        md.numberOfEventIndicators, self.where, t0)
         except ConfigError:
             self.close()
             raise
+        except ExchangeFailed as exc:
+            self.close()
+            raise ConfigError(str(exc)) from None
         except Exception as exc:  # noqa: BLE001 - a binary that will not load or start
             self.close()
             raise ConfigError(f"{self.where}: could not be started ({exc})") from None
@@ -387,8 +393,12 @@ class _Slave:
         """Its step [t, t + h] on the machine's state at t and the other blocks' outputs
         ``linked``: {Simulator input: value}."""
         self._set_inputs(sim, linked)
-        if self.exchange:
-            self._integrate(t, h)
+        if self.me is not None:
+            try:
+                self.me.inputs_set(t)
+                self.me.advance(t, h)
+            except ExchangeFailed as exc:
+                raise _StepFailed(str(exc)) from None
         else:
             self._do_step(t, h)
         return {target: x for (_, target), x in zip(self.outputs, self._get(self.out_vars))}
@@ -405,64 +415,6 @@ class _Slave:
             if terminate or early:
                 raise _StepFailed(f"{self.where}: its step at t = {t:.6g} s ended at "
                                   f"{reached:.6g} s ({'it asked to terminate' if terminate else 'early return'})")
-
-    # ------------------------------------------------------------ model exchange
-    def _continuous_time(self, nx: int) -> None:
-        """From the initialisation (Event Mode) to Continuous-Time Mode, and the states."""
-        for _ in range(100):  # (an FMU's event iteration converges in a few)
-            need, terminate, _, _, timed, at = self.slave.updateDiscreteStates()
-            if terminate:
-                raise ConfigError(f"{self.where}: asked to terminate at its initialisation")
-            if timed:  # a time event this master would step over, silently
-                raise ConfigError(f"{self.where}: a model-exchange FMU with a time event (at "
-                                  f"t = {at:.6g} s): its events are not handled here; export "
-                                  "it for co-simulation")
-            if not need:
-                break
-        else:
-            raise ConfigError(f"{self.where}: its discrete states did not settle at its "
-                              "initialisation (100 event iterations)")
-        self.slave.enterContinuousTimeMode()
-        self.nx = int(nx)
-        self.x = (ctypes.c_double * self.nx)()
-        self.dx = (ctypes.c_double * self.nx)()
-        if self.nx:
-            self.slave.getContinuousStates(self.x, self.nx)
-
-    def _derivatives(self, t: float, x: np.ndarray) -> np.ndarray:
-        self.slave.setTime(t)
-        self.x[:] = x
-        self.slave.setContinuousStates(self.x, self.nx)
-        self.slave.getContinuousStateDerivatives(self.dx, self.nx)
-        return np.array(self.dx[:])
-
-    def _integrate(self, t: float, h: float) -> None:
-        """The FMU's states from t to t + h with its inputs held (scipy's LSODA, rtol 1e-9:
-        the FMU's own error far below the coupling's), then the FMU at t + h."""
-        from scipy.integrate import solve_ivp
-
-        x0 = np.array(self.x[:])
-        x1 = x0
-        if self.nx:
-            try:
-                sol = solve_ivp(self._derivatives, (t, t + h), x0, method="LSODA", rtol=1e-9,
-                                atol=1e-12 * np.maximum(1.0, np.abs(x0)))
-            except Exception as exc:  # noqa: BLE001 - the FMU failed an evaluation
-                raise _StepFailed(f"{self.where}: its states from t = {t:.6g} s could not "
-                                  f"be integrated ({exc})") from None
-            if not sol.success:
-                raise _StepFailed(f"{self.where}: its states from t = {t:.6g} s could not be "
-                                  f"integrated ({sol.message})")
-            x1 = sol.y[:, -1]
-        self.slave.setTime(t + h)
-        self.x[:] = x1
-        if self.nx:
-            self.slave.setContinuousStates(self.x, self.nx)
-        event, terminate = self.slave.completedIntegratorStep()
-        if event or terminate:
-            raise _StepFailed(f"{self.where}: at t = {t + h:.6g} s it asked "
-                              + ("to terminate" if terminate else "for an event, which a "
-                                 "model-exchange FMU run here does not handle"))
 
     def close(self) -> None:
         import shutil

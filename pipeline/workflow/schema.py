@@ -357,7 +357,7 @@ class StaticStart(Strict):
 
 
 class FmuSpec(Strict):
-    """An FMU (FMI 2 or 3 co-simulation, FMI 3 model exchange) beside the machine
+    """An FMU (FMI 2 or 3, co-simulation or model exchange) beside the machine
     (pipeline.solver.cosim)."""
 
     path: str = Field(description="the .fmu file, relative to the workflow's folder")

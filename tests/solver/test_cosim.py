@@ -658,23 +658,6 @@ def lag_me_fmu(tmp_path_factory):
     return Path(FmuBuilder.build_FMU(script, dest=folder, needsExecutionTool="false"))
 
 
-def _edited(fmu: Path, folder: Path, old: str, new: str) -> Path:
-    """A copy of ``fmu`` whose modelDescription.xml has ``old`` replaced by ``new``."""
-    import re
-    import zipfile
-
-    out = folder / f"edited_{fmu.name}"
-    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(out, "w") as dst:
-        for item in src.infolist():
-            data = src.read(item)
-            if item.filename == "modelDescription.xml":
-                text = data.decode()
-                assert re.search(old, text), old
-                data = re.sub(old, new, text).encode()
-            dst.writestr(item, data)
-    return out
-
-
 def test_a_model_exchange_fmu_is_integrated_beside_the_machine(lag_me_fmu):
     """An FMI 3 model-exchange lag FMU filters the stroke (its state integrated here over
     each macro step, the input held); a sampled PID reads its output: the run of the exact
@@ -694,34 +677,3 @@ def test_a_model_exchange_fmu_is_integrated_beside_the_machine(lag_me_fmu):
     print("model exchange against the exact lag:", np.abs(r.q - sim.result().q).max())
     assert np.abs(r.q - sim.result().q).max() < 1e-8
     assert r.q[-1, 0] - S0 > 0.01
-
-
-def test_what_model_exchange_is_not_run_is_said_in_one_line(tmp_path, lag_me_fmu,
-                                                             controller_fmu):
-    """A model-exchange FMU with state events (event indicators) or a time event, and an
-    FMI 2 one: one line each, before anything runs (a time event would otherwise be stepped
-    over silently)."""
-    events = _edited(lag_me_fmu, tmp_path, r"(<InitialUnknown [^>]*/>)",
-                     r'\1<EventIndicator valueReference="1"/>')
-    with pytest.raises(ConfigError, match=r"a model-exchange FMU with 1 event indicator\(s\): "
-                                          r"its state events are not handled here"):
-        cosimulate(_sim(), [FMU(events, {"u": "q:slide.d"})], 0.1, 5e-3)
-    timed = tmp_path / "timed.py"  # the lag with a time event at 0.5 s
-    timed.write_text(LAG_ME.replace("from pythonfmu3 import (", "from pythonfmu3 import "
-                                    "(Fmi3UpdateDiscreteStatesResult, ").replace(
-        "    def get_continuous_state_derivatives(self):",
-        "    def update_discrete_states(self):\n"
-        "        return Fmi3UpdateDiscreteStatesResult(nextEventTimeDefined=True, "
-        "nextEventTime=0.5)\n\n    def get_continuous_state_derivatives(self):"))
-    from pythonfmu3 import FmuBuilder
-
-    timed_fmu = Path(FmuBuilder.build_FMU(timed, dest=tmp_path, needsExecutionTool="false"))
-    with pytest.raises(ConfigError, match=r"a model-exchange FMU with a time event \(at t = "
-                                          r"0.5 s\): its events are not handled here"):
-        cosimulate(_sim(), [FMU(timed_fmu, {"u": "q:slide.d"})], 0.1, 5e-3)
-    fmi2 = _edited(controller_fmu, tmp_path, r"<CoSimulation[^>]*?(/>|>.*?</CoSimulation>)",
-                   '<ModelExchange modelIdentifier="PIValve"/>')
-    with pytest.raises(ConfigError, match=r"has no co-simulation interface \(FMI 2 model "
-                                          r"exchange only\); export it for co-simulation, or "
-                                          r"as FMI 3 model exchange"):
-        cosimulate(_sim(), [FMU(fmi2, {"y": "q:slide.d"}, {"u": "lift"})], 0.1, 5e-3)
