@@ -103,3 +103,105 @@ def test_no_air_is_the_constant_modulus():
 def test_a_bad_air_content_is_refused(value):
     with pytest.raises(ConfigError, match="air_content: expected"):
         _lift(0.0, air_content=value)
+
+
+# ---------------------------------------------------------------- the air dissolving
+P_DIS = 15e5  # Pa gauge: all the air dissolved from 15 bar up
+
+
+def undissolved(p_gauge):
+    """The air's undissolved share: 1 up to atmospheric, 0 from P_DIS, a cubic with zero
+    slope at both ends between (the model of pipeline.dynamics.forces.hydraulics)."""
+    s = np.clip(np.asarray(p_gauge, dtype=float) / P_DIS, 0.0, 1.0)
+    return 1.0 - s * s * (3.0 - 2.0 * s)
+
+
+def mixture_volume(p_gauge, alpha=AIR):
+    """Volume of the oil (1, its own compliance 1 / beta apart) and of the air left
+    undissolved, compressed isothermally: 1 + alpha x(p) p0 / P."""
+    return 1.0 + alpha * undissolved(p_gauge) * P_ATM / (np.asarray(p_gauge) + P_ATM)
+
+
+def beta_dissolving(p_gauge, alpha=AIR):
+    """V / (-dV/dp) of the mixture, dV/dp of the air by central differences (1 Pa)."""
+    p = np.asarray(p_gauge, dtype=float)
+    dv = (mixture_volume(p + 1.0, alpha) - mixture_volume(p - 1.0, alpha)) / 2.0
+    return mixture_volume(p, alpha) / (1.0 / BETA - dv)
+
+
+def test_the_dissolving_airs_modulus_is_the_mixtures_volume_law():
+    """beta_e from the element (its oil stiffness at equal pressures) against V / (-dV/dp)
+    of the mixture by differences: below atmospheric the undissolved law, across the band
+    softer still (the air going into solution), from P_DIS up the oil's own beta; no
+    jump at either end of the band."""
+    _, cyl = _lift(0.0, air_content=AIR, air_dissolved_pressure=P_DIS)
+    va, vb = VA0 + AA * S0, VB0 + AB * (STROKE - S0)
+    area = AA ** 2 / va + AB ** 2 / vb
+    p = np.array([-0.5e5, -1.0, 1.0, 1e5, 4e5, 7.5e5, 12e5, P_DIS - 1.0, P_DIS + 1.0, 50e5])
+    got = np.array([cyl.oil_stiffness(S0, (x, x)) / area for x in p])
+    ref = beta_dissolving(p)
+    np.testing.assert_allclose(got, ref, rtol=1e-6)  # (the differences' own error)
+    assert got[-1] == BETA and got[-2] / BETA > 1.0 - 1e-6
+    # continuous at atmospheric pressure: over its 2 Pa, the undissolved law's own change
+    # and the band's first 1 Pa (2.7e-7; a share falling linearly would jump by 6 %)
+    assert abs(got[2] / got[1] - beta_e(1.0) / beta_e(-1.0)) < 1e-6
+    assert got[4] < beta_e(4e5) * 0.9  # dissolving: softer than the undissolved law
+
+
+def _compliance_dissolving(p_gauge, alpha=AIR):
+    """1 / beta_e = (1 / beta - dV/dp) / V with dV/dp = alpha p0 (x' / P - x / P^2) of the
+    volume law, x' = -6 s (1 - s) / P_DIS in the band (the product rule by hand)."""
+    P = p_gauge + P_ATM
+    s = min(max(p_gauge / P_DIS, 0.0), 1.0)
+    dx = -6.0 * s * (1.0 - s) / P_DIS
+    dv = alpha * P_ATM * (dx / P - undissolved(p_gauge) / P ** 2)
+    return (1.0 / BETA - dv) / mixture_volume(p_gauge, alpha)
+
+
+def _log_volume_ratio_dissolving(p, p0):
+    """-int_p0^p dp / beta_e, by scipy's quad."""
+    from scipy.integrate import quad
+
+    return -quad(_compliance_dissolving, p0, p, points=[0.0, P_DIS], epsabs=0.0,
+                 epsrel=1e-13, limit=200)[0]
+
+
+def test_a_closed_chamber_with_the_air_dissolving_follows_its_volume_law():
+    """Valve closed, the mass released onto its oil columns: p_a swings between 5 and 40
+    bar, through the dissolving band; every output's (p, V) of chamber a lies on
+    ln(V / V0) = -int dp / beta_e (the volume law's modulus, by quadrature), to the
+    integration's error, second order in the step (from 10 us: the band's soft oil and
+    its kinks in dbeta_e/dp leave coarser steps short of it); sealed_pressure inverts that
+    law."""
+    pa0, pb0 = 5e5, 20e5
+    te = np.linspace(0.0, 0.1, 41)
+    gaps = []
+    for step in (1e-5, 5e-6):
+        system, cyl = _lift(0.0, initial_pressures=(pa0, pb0), air_content=AIR,
+                            air_dissolved_pressure=P_DIS)
+        r = simulate(system, np.array([S0]), np.zeros(1), (0.0, 0.1), te,
+                     method="generalized_alpha", step=step, progress=False, rtol=1e-4,
+                     atol=1e-7)
+        pa = r.state("lift.p_a")
+        assert pa.min() < 6e5 and pa.max() > 2 * P_DIS  # through the band
+        va = VA0 + AA * r.q[:, 0]
+        ln = np.log(va / va[0])
+        law = np.array([_log_volume_ratio_dissolving(x, pa0) for x in pa])
+        gaps.append(np.abs(ln - law).max() / np.abs(ln).max())
+    assert r.verdict == "ok", r.report
+    print("dissolving air, chamber a against its volume law:", gaps)
+    assert gaps[1] < 2e-6 and gaps[0] / gaps[1] > 3.0, gaps
+    for ratio in (0.999, 0.99, 1.01):
+        p = cyl.sealed_pressure(pa0, ratio)
+        assert abs(_log_volume_ratio_dissolving(p, pa0) - np.log(ratio)) < 1e-9 * abs(
+            np.log(ratio)), (ratio, p)
+
+
+@pytest.mark.parametrize("kw, match", [
+    ({"air_content": AIR, "air_dissolved_pressure": -1e5},
+     "air_dissolved_pressure: expected a gauge pressure > 0 Pa"),
+    ({"air_dissolved_pressure": 10e5}, "air_dissolved_pressure: there is no air to dissolve"),
+])
+def test_a_bad_dissolving_pressure_is_refused(kw, match):
+    with pytest.raises(ConfigError, match=match):
+        _lift(0.0, **kw)

@@ -197,18 +197,20 @@ def test_a_pid_may_measure_a_chamber_pressure(tmp_path):
 
 
 def test_air_and_a_counterbalance_valve_are_written_in_the_workflow(tmp_path):
-    """``air_content`` and ``counterbalance: {...}`` (with its spool's lag) build the
-    element the Python API builds; a bad valve field is named at its line."""
+    """``air_content`` (dissolving), and ``counterbalance: {...}`` (with its spool's lag)
+    build the element the Python API builds; a bad valve field is named at its line."""
     from pipeline.dynamics.forces.hydraulics import CounterbalanceValve
     from pipeline.workflow.build import build_machine
     from pipeline.workflow.load import load_workflow
 
     extra = ("    air_content: 0.01\n"
+             "    air_dissolved_pressure: 150.0e5\n"
              "    counterbalance: {side: a, setting: 250.0e5, pilot_ratio: 4.0}\n")
     text = LIFT.replace("    nominal_flow: 1.0e-3\n", "    nominal_flow: 1.0e-3\n" + extra)
     m = build_machine(load_workflow(_write(tmp_path, text)), tmp_path / "links")
     cyl = m.system.forces[0]
-    assert cyl.air_content == 0.01 and cyl.STATES == ("p_a", "p_b", "p_c")
+    assert cyl.air_content == 0.01 and cyl.air_dissolved_pressure == 150e5
+    assert cyl.STATES == ("p_a", "p_b", "p_c")
     assert cyl.counterbalance == CounterbalanceValve("a", 250e5, 4.0)
     bad = text.replace("pilot_ratio: 4.0", "pilot_ration: 4.0")
     with pytest.raises(ConfigError, match=r"lift\.yaml:\d+: forces\[0\].*counterbalance: "

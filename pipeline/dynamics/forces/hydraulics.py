@@ -22,7 +22,16 @@ modulus at absolute pressure P = p + p0
 
 beta at high pressure and far less near the tank's (1 % air, beta = 1 GPa: 0.99 beta at
 100 bar, 0.55 beta at 10 bar, 0.08 beta at 2 bar gauge), used in every chamber's rate (and
-the supply line's). The valve's command u(t) in
+the supply line's). The air stays undissolved unless ``air_dissolved_pressure`` p_d
+(gauge) is given: then it dissolves as the pressure rises, the undissolved share of it
+x(p) = 1 - 3 s^2 + 2 s^3, s = p / p_d, from atmospheric pressure (x = 1) to p_d (x = 0;
+a cubic with zero slope at both ends, so the modulus is continuous: equilibrium
+dissolution, taken as instant and reversible), and the mixture of the oil and the air
+left, alpha x p0 / P of it per unit of oil, has the modulus
+
+    beta_e(P) = beta (1 + x y) / (1 + beta y (x / P - x')),   y = alpha p0 / P,
+
+x' = dx/dp (the air dissolving adds its own compliance), beta from p_d up. The valve's command u(t) in
 [-1, 1] (``command``; clipped) sets its spool position x: at once (x = u), or through spool
 dynamics, a first-order lag (``spool_time_constant`` tau: x' = (u - x) / tau) or a
 second-order one (``spool_frequency`` f_v, ``spool_damping`` zeta_v: x'' = w_v^2 (u - x) -
@@ -88,8 +97,8 @@ area over the valve's flow per unit command), so the loop need not lag to move.
 
 Not modelled (yet): the cushions' throttling near the ends (without end stops a stroke
 outside [0, stroke] is reported by the run's checks), cavitation (pressures below -1 bar
-gauge are reported), the air's dissolving at higher pressure (taken as staying
-undissolved, the soft limit), a counterbalance valve's second-order spool dynamics (its
+gauge are reported), the time the air takes to dissolve and to come out again (taken as
+instant), a counterbalance valve's second-order spool dynamics (its
 mass and spring: the lag above is first order).
 
 The physics (flows, pressure rates, force) is written once, as the compiled functions
@@ -123,9 +132,9 @@ PRESSURES = ("p_a", "p_b")
 
 # par columns of the packed element
 _AA, _AB, _L0, _STROKE, _VA0, _VB0, _BETA, _PS, _PT, _KV, _DPL, _LEAK, _VISC, _COUL, _VS, \
-    _QP, _PR, _KR, _VS0, _SPOOL, _TAU, _WV, _ZV, _OVL, _KE, _CE, _AIR, \
+    _QP, _PR, _KR, _VS0, _SPOOL, _TAU, _WV, _ZV, _OVL, _KE, _CE, _AIR, _PDIS, \
     _CBS, _KCB, _PSET, _PSI, _DPO, _VC0, _TCO, _TCC, \
-    _PID, _KP, _KI, _KD, _UMIN, _UMAX, _TT, _MEAS, _KFF, _MMK, _MCOMP = range(46)
+    _PID, _KP, _KI, _KD, _UMIN, _UMAX, _TT, _MEAS, _KFF, _MMK, _MCOMP = range(47)
 #: Pa: atmospheric pressure, the reference of the gauge pressures and of the air content
 ATMOSPHERE = 101325.0
 #: _MEAS of a controller on a marker's position (its point _MMK, its component _MCOMP)
@@ -320,7 +329,8 @@ class HydraulicCylinder(CompiledElement, LineElement):
 
     ``dead_volume_a``/``_b`` default to 10 % of the chamber's full volume (add the
     hoses'); ``air_content`` is the volume fraction of undissolved air in the oil at
-    atmospheric pressure (0: the constant ``bulk_modulus``; module docstring);
+    atmospheric pressure (0: the constant ``bulk_modulus``; module docstring), all of it
+    dissolved from ``air_dissolved_pressure`` (Pa gauge; None: it stays undissolved) up;
     ``counterbalance`` a :class:`CounterbalanceValve` (or its fields as a mapping) on one
     chamber;
     ``initial_pressures`` (Pa gauge) are the states at the start, one of them
@@ -361,6 +371,7 @@ class HydraulicCylinder(CompiledElement, LineElement):
     end_stiffness: float | None = None
     end_damping: float = 0.0
     air_content: float = 0.0
+    air_dissolved_pressure: float | None = None
     counterbalance: Any = None
     KIND: ClassVar[int] = 8
     TYPE: ClassVar[str] = "hydraulic_cylinder"
@@ -417,6 +428,17 @@ class HydraulicCylinder(CompiledElement, LineElement):
             raise ConfigError(f"{where}: air_content: expected a volume fraction in [0, 1) "
                               f"(undissolved air at atmospheric pressure, e.g. 0.01), got "
                               f"{a!r}")
+        d = self.air_dissolved_pressure
+        if d is not None:
+            if isinstance(d, bool) or not isinstance(d, int | float) or not d > 0 \
+                    or not math.isfinite(d):
+                raise ConfigError(f"{where}: air_dissolved_pressure: expected a gauge "
+                                  f"pressure > 0 Pa (all the air dissolved from it up), got "
+                                  f"{d!r}")
+            if not a:
+                raise ConfigError(f"{where}: air_dissolved_pressure: there is no air to "
+                                  f"dissolve (air_content is 0); give air_content, or leave "
+                                  f"air_dissolved_pressure out")
         cb = self.counterbalance
         if isinstance(cb, Mapping):
             try:
@@ -496,7 +518,7 @@ class HydraulicCylinder(CompiledElement, LineElement):
                 0.1 * ab * self.stroke if self.dead_volume_b is None else self.dead_volume_b)
 
     def parameters(self) -> np.ndarray:
-        """(46,) the packed parameters (the ``par`` row of the compiled form)."""
+        """(47,) the packed parameters (the ``par`` row of the compiled form)."""
         aa, ab = self.areas
         va, vb = self.dead_volumes
         pump = self.pump_flow is not None
@@ -510,7 +532,7 @@ class HydraulicCylinder(CompiledElement, LineElement):
                          self.spool_time_constant or 0.0,
                          2 * math.pi * (self.spool_frequency or 0.0), self.spool_damping,
                          self.spool_overlap, self.end_stiffness or 0.0, self.end_damping,
-                         self.air_content,
+                         self.air_content, self.air_dissolved_pressure or 0.0,
                          *(self.counterbalance.parameters() if self.counterbalance is not None
                            else [0.0] * 8),
                          *self._pid_parameters()], dtype=float)
@@ -630,12 +652,32 @@ class HydraulicCylinder(CompiledElement, LineElement):
         ``ratio`` times what it was: dp = -beta_e(p) dV / V integrated, in closed form,
         ln(V / V0) = -[(P - P0) / beta + ln(P / P0) - (1 + a / beta) ln((P + a) / (P0 + a))]
         with P the absolute pressures and a = alpha p0 (module docstring; without air,
-        p0 - beta ln(ratio)), solved for P."""
+        p0 - beta ln(ratio)), solved for P; with the air dissolving, ln(V / V0) =
+        -int dp / beta_e(p) by quadrature."""
         beta, alpha = self.bulk_modulus, self.air_content
         if alpha == 0.0:
             return p0 - beta * math.log(ratio)
         from scipy.optimize import brentq
 
+        if self.air_dissolved_pressure is not None:  # the integral, by quadrature
+            from scipy.integrate import quad
+
+            par = self.parameters()
+            pd = self.air_dissolved_pressure
+
+            def compliance(p):
+                return 1.0 / effective_bulk_modulus(par, p)
+
+            def integral(p):
+                lo, hi = min(p0, p), max(p0, p)
+                kinks = [x for x in (0.0, pd) if lo < x < hi]
+                return math.copysign(quad(compliance, lo, hi, points=kinks or None,
+                                          epsabs=0.0, epsrel=1e-13, limit=200)[0],
+                                     p - p0)
+
+            return brentq(lambda p: math.log(ratio) + integral(p),
+                          1e-6 * ATMOSPHERE - ATMOSPHERE, p0 + 100.0 * beta, xtol=1e-9,
+                          rtol=1e-14)
         a, P0 = alpha * ATMOSPHERE, p0 + ATMOSPHERE
 
         def residual(p):
@@ -729,13 +771,21 @@ def effective_bulk_modulus(par, p):
     """The oil's bulk modulus (Pa) at gauge pressure p (Pa) with its entrained air (module
     docstring): beta (1 + alpha p0 / P) / (1 + alpha beta p0 / P^2), P = p + p0 (absolute,
     kept above a hundredth of an atmosphere: below, the oil cavitates, which the run's
-    checks report)."""
+    checks report); with the air dissolving, of its undissolved share x(p)."""
     alpha = par[_AIR]
     if alpha == 0.0:
         return par[_BETA]
+    x, dx = 1.0, 0.0  # the air's undissolved share and its rate, 1/Pa
+    pd = par[_PDIS]
+    if pd > 0.0 and p > 0.0:
+        if p >= pd:
+            return par[_BETA]
+        s = p / pd
+        x = 1.0 - s * s * (3.0 - 2.0 * s)
+        dx = -6.0 * s * (1.0 - s) / pd
     P = max(p + ATMOSPHERE, 0.01 * ATMOSPHERE)
-    x = alpha * ATMOSPHERE / P
-    return par[_BETA] * (1.0 + x) / (1.0 + par[_BETA] * x / P)
+    y = alpha * ATMOSPHERE / P
+    return par[_BETA] * (1.0 + x * y) / (1.0 + par[_BETA] * y * (x / P - dx))
 
 
 @njit(cache=True)
