@@ -69,13 +69,14 @@ class FMU:
     ``path``, its ``inputs``
     ({FMU input variable: the machine's signal}, :func:`signal`), its ``outputs`` ({FMU
     output variable: the Simulator input it drives}) and the start values of its
-    ``parameters`` ({variable: value}, set before its initialisation); ``name``, by which
+    ``parameters`` ({variable: value}, set before its initialisation: a number, or text
+    for a String variable, a file name or a mode, say); ``name``, by which
     other blocks read its outputs (``block:<name>.<variable>``; default ``block<k>``)."""
 
     path: str | Path
     inputs: Mapping[str, str] = field(default_factory=dict)
     outputs: Mapping[str, str] = field(default_factory=dict)
-    parameters: Mapping[str, float] = field(default_factory=dict)
+    parameters: Mapping[str, float | str] = field(default_factory=dict)
     name: str | None = None
 
     @property
@@ -276,17 +277,18 @@ class _Slave:
         self.me = None
         variables = {v.name: v for v in md.modelVariables}
 
-        def refs(names, causalities, what):
+        def refs(names, causalities, what, text=False):
             out = []
             for name in names:
                 v = variables.get(name)
                 if v is None:
                     raise ConfigError(f"{self.where}: {what} {name!r}: no such variable; its "
                                       f"variables: {sorted(variables)}")
-                if not _usable(v, causalities):
+                if not _usable(v, causalities, text):
                     raise ConfigError(f"{self.where}: {what} {name!r}: expected a number "
                                       f"(Real, Integer, Boolean; FMI 3: Float64, Float32, "
-                                      f"Int8-64, UInt8-64, Boolean, Enumeration) of causality "
+                                      f"Int8-64, UInt8-64, Boolean, Enumeration"
+                                      f"{'; or a String' if text else ''}) of causality "
                                       f"{' or '.join(causalities)}, got a {v.type} "
                                       f"{v.causality}")
                 out.append(v)
@@ -296,7 +298,7 @@ class _Slave:
         self.outputs = list(spec.outputs.items())
         self.in_vars = refs([k for k, _ in self.inputs], ("input",), "input")
         self.out_vars = refs([k for k, _ in self.outputs], ("output",), "output")
-        par_vars = refs(list(spec.parameters), ("parameter", "input"), "parameter")
+        par_vars = refs(list(spec.parameters), ("parameter", "input"), "parameter", text=True)
         par_values = [_exact(v, x, f"{self.where}: parameter {v.name!r}")
                       for v, x in zip(par_vars, spec.parameters.values())]
         for _, target in self.outputs:
@@ -355,7 +357,8 @@ class _Slave:
     def _set(self, variables, values) -> None:
         """Set each variable of ``variables`` to its value (each in its own type)."""
         for v, x in zip(variables, values):
-            getattr(self.slave, _SETTERS[v.type][self.fmi3])([v.valueReference], [x])
+            setter = "setString" if v.type == "String" else _SETTERS[v.type][self.fmi3]
+            getattr(self.slave, setter)([v.valueReference], [x])
 
     def _get(self, variables) -> list[float]:
         """The values of ``variables`` as floats (a Boolean is 1 or 0)."""
@@ -444,9 +447,10 @@ _SETTERS = {
 _INTEGERS = {"Integer", "Enumeration"} | {f"{u}Int{b}" for u in ("", "U") for b in (8, 16, 32, 64)}
 
 
-def _usable(v, causalities) -> bool:
-    """Can the master set or read FMU variable v: a number of one of ``causalities``?"""
-    return v.causality in causalities and v.type in _SETTERS
+def _usable(v, causalities, text: bool = False) -> bool:
+    """Can the master set or read FMU variable v: a number (or, ``text``, a String: a
+    parameter's) of one of ``causalities``?"""
+    return v.causality in causalities and (v.type in _SETTERS or (text and v.type == "String"))
 
 
 def _typed(v, x: float):
@@ -461,7 +465,14 @@ def _typed(v, x: float):
 
 def _exact(v, x, where: str):
     """A parameter's value x for variable v; ConfigError for a non-integral value of an
-    integer type or a Boolean that is not 0, 1, true or false."""
+    integer type, a Boolean that is not 0, 1, true or false, a String that is not text or
+    a number that is."""
+    if v.type == "String":
+        if isinstance(x, str):
+            return x
+        raise ConfigError(f"{where}: expected text (a String), got {x!r}")
+    if isinstance(x, str):
+        raise ConfigError(f"{where}: expected a number (a {v.type}), got the text {x!r}")
     if v.type == "Boolean":
         if x in (0, 1):  # (True and False among them)
             return bool(x)

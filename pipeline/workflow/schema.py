@@ -370,7 +370,9 @@ class FmuSpec(Strict):
                                    "(block:<name>.<output>)")
     outputs: dict[str, str] = Field(default_factory=dict, description="FMU output variable: "
                                     "the force element or driven coordinate it drives")
-    parameters: dict[str, float] = Field(default_factory=dict, description="start values")
+    parameters: dict[str, float | bool | str] = Field(
+        default_factory=dict, description="start values: numbers, or text for a String "
+                                          "variable")
 
 
 class ControllerSpec(Strict):

@@ -331,6 +331,12 @@ def test_a_workflow_names_a_bad_fmu_connection_at_its_analysis(tmp_path, control
                                           r"co-simulation: FMU .*parameter 'kq'"):
         run_workflow(_workflow(tmp_path, controller_fmu, "{kq: 1.0}"),
                      out_root=tmp_path / "out")
+    # text reaches the FMU as text: here a Real's, refused naming it
+    with pytest.raises(ConfigError, match=r"lift\.yaml:\d+: analyses\[0\]\.fmus: "
+                                          r"co-simulation: FMU .*parameter 'kp': expected a "
+                                          r"number \(a Real\), got the text 'high'"):
+        run_workflow(_workflow(tmp_path, controller_fmu, "{kp: high}"),
+                     out_root=tmp_path / "out")
     bad = _workflow(tmp_path, controller_fmu).read_text().replace("    macro_step: 5.0e-3\n", "")
     (tmp_path / "lift.yaml").write_text(bad)
     with pytest.raises(ConfigError, match=r"a co-simulation runs method generalized_alpha "
@@ -677,3 +683,51 @@ def test_a_model_exchange_fmu_is_integrated_beside_the_machine(lag_me_fmu):
     print("model exchange against the exact lag:", np.abs(r.q - sim.result().q).max())
     assert np.abs(r.q - sim.result().q).max() < 1e-8
     assert r.q[-1, 0] - S0 > 0.01
+
+
+def _with_law(script: str, fmi3: bool) -> str:
+    """The PI controller's script with a String parameter ``law``: "pi", or "p" (its
+    integral left out)."""
+    string = ("String('law', causality=Fmi3Causality.parameter, "
+              "variability=Fmi3Variability.tunable)" if fmi3 else
+              "String('law', causality=Fmi2Causality.parameter, variability='tunable')")
+    head = "from pythonfmu3 import " if fmi3 else "from pythonfmu import "
+    return script.replace(head, head + "String, ").replace(
+        "        self.integral = 0.0\n",
+        f"        self.integral = 0.0\n        self.law = 'pi'\n"
+        f"        self.register_variable({string})\n").replace(
+        "self.ki * self.integral", "(self.ki if self.law == 'pi' else 0.0) * self.integral")
+
+
+@pytest.mark.parametrize("fmi3", [False, True])
+def test_a_string_parameter_is_set_as_text(fmi3, tmp_path):
+    """A String parameter (the controller's law, "p" or "pi") is set before the FMU's
+    initialisation: "p" is the sampled P law by hand; a number for it, or text for a
+    Real, is refused in one line naming the FMU and the parameter."""
+    if fmi3:
+        pytest.importorskip("pythonfmu3")
+        from pythonfmu3 import FmuBuilder
+    else:
+        from pythonfmu import FmuBuilder
+    script = tmp_path / ("pi_law3.py" if fmi3 else "pi_law.py")
+    script.write_text(_with_law(CONTROLLER3 if fmi3 else CONTROLLER, fmi3))
+    fmu = Path(FmuBuilder.build_FMU(script, dest=tmp_path))
+    goal, kp, H = S0 + 0.04, 30.0, 5e-3
+    spec = {"inputs": {"y": "q:slide.d"}, "outputs": {"u": "lift"}}
+    r = cosimulate(_sim(), [FMU(fmu, **spec, parameters={"kp": kp, "ki": 10.0, "r": goal,
+                                                         "law": "p"})], 0.3, H,
+                   coupling_error=False)
+    sim = _sim()
+    while sim.t < 0.3 - 1e-12:
+        sim.step(H, {"lift": max(-1.0, min(1.0, kp * (goal - sim.q[0])))})
+    assert np.abs(r.q - sim.result().q).max() < 1e-12
+    pi = cosimulate(_sim(), [FMU(fmu, **spec, parameters={"kp": kp, "ki": 10.0, "r": goal,
+                                                          "law": "pi"})], 0.3, H,
+                    coupling_error=False)
+    assert np.abs(pi.q - r.q).max() > 1e-4  # the text took effect
+    with pytest.raises(ConfigError, match=r"parameter 'law': expected text \(a String\), "
+                                          r"got 1.0"):
+        cosimulate(_sim(), [FMU(fmu, **spec, parameters={"law": 1.0})], 0.1, H)
+    with pytest.raises(ConfigError, match=r"parameter 'kp': expected a number \(a "
+                                          r"(Real|Float64)\), got the text 'high'"):
+        cosimulate(_sim(), [FMU(fmu, **spec, parameters={"kp": "high"})], 0.1, H)
