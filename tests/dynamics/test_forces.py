@@ -220,3 +220,31 @@ def test_physical_loads_listed_for_reactions_match_the_reference_loads(case):
             assert np.allclose(g.point, point(marker, q, off), atol=1e-14)
             assert np.allclose(g.force, np.zeros(3) if F is None else F, rtol=1e-12, atol=1e-9)
             assert np.allclose(g.torque, np.zeros(3) if Tq is None else Tq, rtol=1e-12)
+
+
+def test_histories_at_many_times_are_the_histories_at_each():
+    """The force factors of a run are evaluated for all its step times at once (drivers
+    take arrays): the same values as one time at a time (to the last bit or two: numpy's
+    array and scalar arithmetic may round apart), for a driver, a sum of drivers, a
+    controller's reference and its rate, a user's callable and a number."""
+    from pipeline.dynamics.forces.hydraulics import PID
+    from pipeline.dynamics.forces.loads import (
+        history_rate,
+        history_rates,
+        history_value,
+        history_values,
+    )
+    from pipeline.kinematics.drivers import SmoothStep
+
+    times = np.linspace(-0.1, 1.3, 57)
+    ramp = SmoothStep(0.1, 0.9, 0.2, 1.4)
+    for h in (ramp, ramp + Harmonic(0.3, 2.0), PID(ramp, kp=2.0), lambda t: np.sin(3 * t),
+              2.5):
+        got = history_values(h, times)
+        assert got.shape == times.shape
+        np.testing.assert_allclose(got, [history_value(h, float(t), "h") for t in times],
+                                   rtol=4e-16, atol=4e-16)
+        rates = history_rates(h, times)
+        np.testing.assert_allclose(rates, [history_rate(h, float(t)) for t in times],
+                                   rtol=4e-16, atol=2e-15)
+    assert history_rates(PID(ramp, kp=2.0), times).any()  # the reference's rate

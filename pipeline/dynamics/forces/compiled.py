@@ -35,7 +35,7 @@ from numba import njit, objmode
 from pipeline.core import kernel_cache  # noqa: F401  (numba's cache kept consistent)
 from pipeline.dynamics.forces import python_elements as P
 from pipeline.dynamics.forces.base import ForceElement, Kernels, Load
-from pipeline.dynamics.forces.loads import history_value
+from pipeline.dynamics.forces.loads import history_rates, history_values
 from pipeline.dynamics.forces.markers import ForceData, MarkerTable, line_geometry, line_loads
 
 __all__ = ["KERNELS", "CompiledForces", "Kernels", "compile_forces", "element_force",
@@ -265,9 +265,9 @@ def force_factors(histories: tuple, times: np.ndarray) -> np.ndarray:
             out[:, j] = times
             out[:, F + j] = 1.0
         elif h is not None:
-            out[:, j] = [history_value(h, float(x), "history") for x in times]
+            out[:, j] = history_values(h, times)
             if getattr(h, "feedforward", False):  # a controller's reference rate
-                out[:, F + j] = [h.rate(float(x)) for x in times]
+                out[:, F + j] = history_rates(h, times)
     return out
 
 

@@ -213,6 +213,18 @@ class PID:
 
         return history_rate(self.reference, t)
 
+    def values_at(self, times: np.ndarray) -> np.ndarray:
+        """r at each of ``times`` (k,) s (at once for a driver)."""
+        from pipeline.dynamics.forces.loads import history_values
+
+        return history_values(self.reference, times, "PID reference")
+
+    def rates_at(self, times: np.ndarray) -> np.ndarray:
+        """r' at each of ``times`` (k,) s."""
+        from pipeline.dynamics.forces.loads import history_rates
+
+        return history_rates(self.reference, times)
+
     @property
     def tracking(self) -> float:
         """T_t, s (0: no integral action, nothing to wind up): :func:`anti_windup_time`."""

@@ -40,6 +40,7 @@ from pipeline.dynamics.forces.markers import (
 from pipeline.dynamics.forces.markers import (
     marker_point as point_kernel,
 )
+from pipeline.kinematics.driver_base import Driver
 
 __all__ = [
     "FollowerForce",
@@ -48,7 +49,10 @@ __all__ = [
     "LineForce",
     "PointForce",
     "Torque",
+    "history_rate",
+    "history_rates",
     "history_value",
+    "history_values",
 ]
 
 
@@ -63,6 +67,33 @@ def history_value(history: Any, t: float, name: str) -> float:
         raise ConfigError(f"force element '{name}': history: expected a number, a driver "
                           f"with value(t) or a callable, got {type(history).__name__}")
     return float(f(t))
+
+
+def history_values(history: Any, times: np.ndarray, name: str = "history") -> np.ndarray:
+    """:func:`history_value` at each of ``times`` (k,) s: at once for a driver (drivers take
+    arrays of times) or an object with ``values_at(times)`` (a controller: its
+    reference's), point by point otherwise (a user's callable)."""
+    times = np.asarray(times, dtype=float).reshape(-1)
+    if isinstance(history, Driver):
+        return np.broadcast_to(np.asarray(history.value(times), dtype=float),
+                               times.shape).copy()
+    many = getattr(history, "values_at", None)
+    if callable(many):
+        return np.asarray(many(times), dtype=float).reshape(times.shape)
+    return np.array([history_value(history, float(t), name) for t in times], dtype=float)
+
+
+def history_rates(history: Any, times: np.ndarray) -> np.ndarray:
+    """:func:`history_rate` at each of ``times`` (k,) s, at once where
+    :func:`history_values` is."""
+    times = np.asarray(times, dtype=float).reshape(-1)
+    if isinstance(history, Driver):
+        return np.broadcast_to(np.asarray(history.rate(times), dtype=float),
+                               times.shape).copy()
+    many = getattr(history, "rates_at", None)
+    if callable(many):
+        return np.asarray(many(times), dtype=float).reshape(times.shape)
+    return np.array([history_rate(history, float(t)) for t in times], dtype=float)
 
 
 def history_rate(history: Any, t: float) -> float:
