@@ -69,14 +69,15 @@ class FMU:
     ``path``, its ``inputs``
     ({FMU input variable: the machine's signal}, :func:`signal`), its ``outputs`` ({FMU
     output variable: the Simulator input it drives}) and the start values of its
-    ``parameters`` ({variable: value}, set before its initialisation: a number, or text
-    for a String variable, a file name or a mode, say); ``name``, by which
+    ``parameters`` ({variable: value}, set before its initialisation: a number, text
+    for a String variable (a file name or a mode, say), bytes or their hex digits for a
+    Binary one); ``name``, by which
     other blocks read its outputs (``block:<name>.<variable>``; default ``block<k>``)."""
 
     path: str | Path
     inputs: Mapping[str, str] = field(default_factory=dict)
     outputs: Mapping[str, str] = field(default_factory=dict)
-    parameters: Mapping[str, float | str] = field(default_factory=dict)
+    parameters: Mapping[str, float | str | bytes] = field(default_factory=dict)
     name: str | None = None
 
     @property
@@ -288,12 +289,19 @@ class _Slave:
                     raise ConfigError(f"{self.where}: {what} {name!r}: expected a number "
                                       f"(Real, Integer, Boolean; FMI 3: Float64, Float32, "
                                       f"Int8-64, UInt8-64, Boolean, Enumeration"
-                                      f"{'; or a String' if text else ''}) of causality "
+                                      f"{'; or a String, or Binary' if text else ''}) of "
+                                      f"causality "
                                       f"{' or '.join(causalities)}, got a {v.type} "
                                       f"{v.causality}")
                 out.append(v)
             return out
 
+        # FMI 3 clocks: periodic input clocks of a model-exchange FMU are ticked here; the
+        # variables they clock are set (inputs) and read (outputs) at their ticks only
+        self.clocked = {v.valueReference for v in md.modelVariables if getattr(v, "clocks", None)}
+        self.clocks = _clocks(path, md, self.exchange, self.where)
+        self.held_clocked: list = []
+        self.clocked_values: dict[int, float] = {}
         self.inputs = list(spec.inputs.items())
         self.outputs = list(spec.outputs.items())
         self.in_vars = refs([k for k, _ in self.inputs], ("input",), "input")
@@ -343,7 +351,8 @@ class _Slave:
                 from pipeline.solver.model_exchange import ModelExchange
 
                 self.me = ModelExchange(self.slave, self.fmi3, md.numberOfContinuousStates,
-                                        md.numberOfEventIndicators, self.where, t0)
+                                        md.numberOfEventIndicators, self.where, t0,
+                                        self.clocks, self._tick_inputs, self._tick_outputs)
         except ConfigError:
             self.close()
             raise
@@ -357,18 +366,39 @@ class _Slave:
     def _set(self, variables, values) -> None:
         """Set each variable of ``variables`` to its value (each in its own type)."""
         for v, x in zip(variables, values):
-            setter = "setString" if v.type == "String" else _SETTERS[v.type][self.fmi3]
+            setter = {"String": "setString", "Binary": "setBinary"}.get(v.type) \
+                or _SETTERS[v.type][self.fmi3]
             getattr(self.slave, setter)([v.valueReference], [x])
 
+    def _read_now(self, v) -> float:
+        return float(getattr(self.slave, _SETTERS[v.type][self.fmi3].replace("set", "get", 1))(
+            [v.valueReference])[0])
+
     def _get(self, variables) -> list[float]:
-        """The values of ``variables`` as floats (a Boolean is 1 or 0)."""
-        return [float(getattr(self.slave, _SETTERS[v.type][self.fmi3].replace("set", "get", 1))(
-            [v.valueReference])[0]) for v in variables]
+        """The values of ``variables`` as floats (a Boolean is 1 or 0); a clocked one's as
+        read at its clock's last tick (its start value before)."""
+        return [self.clocked_values.get(v.valueReference, _start(v))
+                if v.valueReference in self.clocked else self._read_now(v) for v in variables]
 
     def _set_inputs(self, sim, linked=None) -> None:
+        """The inputs from the machine's signals (and other blocks' outputs); a clocked
+        one's value is held for its clock's next tick."""
         if self.in_vars:
-            self._set(self.in_vars, [_typed(v, _read(sim, name, linked))
-                                     for v, (_, name) in zip(self.in_vars, self.inputs)])
+            values = [(v, _typed(v, _read(sim, name, linked)))
+                      for v, (_, name) in zip(self.in_vars, self.inputs)]
+            now = [(v, x) for v, x in values if v.valueReference not in self.clocked]
+            self.held_clocked = [(v, x) for v, x in values if v.valueReference in self.clocked]
+            if now:
+                self._set(*zip(*now))
+
+    def _tick_inputs(self, t: float) -> None:
+        if self.held_clocked:
+            self._set(*zip(*self.held_clocked))
+
+    def _tick_outputs(self) -> None:
+        for v in self.out_vars + self.export_vars:
+            if v.valueReference in self.clocked:
+                self.clocked_values[v.valueReference] = self._read_now(v)
 
     @property
     def reads(self) -> tuple[str, ...]:
@@ -447,10 +477,55 @@ _SETTERS = {
 _INTEGERS = {"Integer", "Enumeration"} | {f"{u}Int{b}" for u in ("", "U") for b in (8, 16, 32, 64)}
 
 
+def _clocks(path: Path, md, exchange: bool, where: str) -> dict[int, tuple[float, float]]:
+    """{value reference: (interval, shift), s} of the FMU's clocks: periodic input clocks
+    of constant interval (FMI 3 model exchange; read from its model description, which
+    fmpy does not parse for them); a ConfigError naming any other clock."""
+    clocks = [v for v in md.modelVariables if v.type == "Clock"]
+    if not clocks:
+        return {}
+    if not exchange:
+        raise ConfigError(f"{where}: a co-simulation FMU with clocks "
+                          f"({[v.name for v in clocks]}): they are not run here; export it "
+                          "as FMI 3 model exchange")
+    import zipfile
+    from xml.etree import ElementTree
+
+    with zipfile.ZipFile(path) as z:
+        root = ElementTree.fromstring(z.read("modelDescription.xml"))
+    timing = {int(e.get("valueReference")): e for e in root.iter("Clock")}
+    out = {}
+    for v in clocks:
+        e = timing.get(v.valueReference)
+        interval = e.get("intervalDecimal") if e is not None else None
+        try:
+            interval, shift = float(interval), float(e.get("shiftDecimal", 0.0))
+        except (TypeError, ValueError):
+            interval = shift = math.nan
+        if v.causality != "input" or v.intervalVariability != "constant" \
+                or not (interval > 0 and math.isfinite(interval) and shift >= 0):
+            raise ConfigError(f"{where}: clock {v.name!r} ({v.causality}, intervalVariability "
+                              f"{v.intervalVariability!r}): this master ticks periodic input "
+                              "clocks of a constant interval (intervalDecimal > 0) only")
+        out[v.valueReference] = (interval, shift)
+    return out
+
+
+def _start(v) -> float:
+    """A variable's start value as a number (0 without one; a Boolean's 1 or 0)."""
+    x = v.start
+    if x is None:
+        return 0.0
+    if isinstance(x, str) and x.lower() in ("true", "false"):
+        return float(x.lower() == "true")
+    return float(x)
+
+
 def _usable(v, causalities, text: bool = False) -> bool:
     """Can the master set or read FMU variable v: a number (or, ``text``, a String: a
     parameter's) of one of ``causalities``?"""
-    return v.causality in causalities and (v.type in _SETTERS or (text and v.type == "String"))
+    return v.causality in causalities and (v.type in _SETTERS
+                                           or (text and v.type in ("String", "Binary")))
 
 
 def _typed(v, x: float):
@@ -465,12 +540,20 @@ def _typed(v, x: float):
 
 def _exact(v, x, where: str):
     """A parameter's value x for variable v; ConfigError for a non-integral value of an
-    integer type, a Boolean that is not 0, 1, true or false, a String that is not text or
-    a number that is."""
+    integer type, a Boolean that is not 0, 1, true or false, a String that is not text, a
+    Binary that is neither bytes nor hex digits, or a number that is text."""
     if v.type == "String":
         if isinstance(x, str):
             return x
         raise ConfigError(f"{where}: expected text (a String), got {x!r}")
+    if v.type == "Binary":
+        if isinstance(x, bytes | bytearray):
+            return bytes(x)
+        try:
+            return bytes.fromhex(x)
+        except (TypeError, ValueError):
+            raise ConfigError(f"{where}: expected bytes, or their hex digits as text (a "
+                              f"Binary), got {x!r}") from None
     if isinstance(x, str):
         raise ConfigError(f"{where}: expected a number (a {v.type}), got the text {x!r}")
     if v.type == "Boolean":

@@ -12,8 +12,15 @@ FMU's own error far below the coupling's) in segments that end at
   the sign has changed (an FMU that decides its mode by the sign sees the crossing). Two
   crossings of one indicator inside one accepted step are not seen (as in any such
   integrator: the step is bounded by the dynamics, not by the indicators);
-- a **time event** the FMU announced (``nextEventTime``);
+- a **time event** the FMU announced (``nextEventTime``), or a **tick** of one of its
+  periodic input clocks (FMI 3, ``intervalVariability="constant"``: at shift + k interval
+  from the start), where the clock is activated (``setClock``) and the FMU's clocked
+  inputs are set (the machine's signals as held over the macro step) before its discrete
+  states are updated, its clocked outputs read after (and held until the next tick);
 - t + H, where the FMU may still ask for an event (``completedIntegratorStep``).
+
+A time event or tick at t + H itself is taken at the start of the next macro step, with
+the inputs of that communication point (the machine's state there is not known before).
 
 At an event the FMU is put in Event Mode, its discrete states are iterated until they
 settle (``newDiscreteStates`` / ``updateDiscreteStates``), and it returns to
@@ -44,9 +51,17 @@ class ModelExchange:
     ``FMU3Model`` already initialised, in Event Mode): ``nx`` states, ``nz`` event
     indicators; ``where`` names it in messages."""
 
-    def __init__(self, slave, fmi3: bool, nx: int, nz: int, where: str, t0: float):
+    def __init__(self, slave, fmi3: bool, nx: int, nz: int, where: str, t0: float,
+                 clocks=None, before_tick=None, after_tick=None):
+        """``clocks``: {value reference: (interval, shift), s} of its periodic input clocks;
+        ``before_tick(t)`` sets its clocked inputs at a tick (in Event Mode, the clocks
+        active), ``after_tick()`` reads its clocked outputs after it."""
         self.slave, self.fmi3, self.where = slave, fmi3, where
         self.nx, self.nz = int(nx), int(nz)
+        self.clocks = dict(clocks or {})
+        self.ticks = {vr: 0 for vr in self.clocks}  # each clock's next tick's index
+        self.t0 = float(t0)
+        self.before_tick, self.after_tick = before_tick, after_tick
         self._x = (ctypes.c_double * max(self.nx, 1))()
         self._dx = (ctypes.c_double * max(self.nx, 1))()
         self._z = (ctypes.c_double * max(self.nz, 1))()
@@ -104,11 +119,32 @@ class ModelExchange:
         self.next_time = float(at) if timed else None
         self.slave.enterContinuousTimeMode()
 
-    def _event(self, t: float, x: np.ndarray) -> None:
-        """The FMU's event at (t, x); its states and indicator signs after it."""
+    def _tick_time(self, vr: int) -> float:
+        interval, shift = self.clocks[vr]
+        return self.t0 + shift + self.ticks[vr] * interval
+
+    def _due(self) -> float | None:
+        """The next time event or tick, s (None: none)."""
+        times = [self._tick_time(vr) for vr in self.clocks]
+        if self.next_time is not None:
+            times.append(self.next_time)
+        return min(times) if times else None
+
+    def _event(self, t: float, x: np.ndarray, ticking=()) -> None:
+        """The FMU's event at (t, x), its clocks ``ticking`` (value references) active;
+        its states and indicator signs after it."""
         self._put(t, x)
         self.slave.enterEventMode()
+        if ticking:
+            self.slave.setClock(list(ticking), [True] * len(ticking))
+            if self.before_tick is not None:
+                self.before_tick(t)
         self._settle(t, "an event")
+        if ticking:
+            if self.after_tick is not None:
+                self.after_tick()
+            for vr in ticking:
+                self.ticks[vr] += 1
         self.events += 1
         self.x = self._states()
         self.signs = self._signs(t, self.x)
@@ -126,19 +162,22 @@ class ModelExchange:
     def advance(self, t: float, h: float) -> None:
         """Its states from t to t + h, its inputs held, its events handled on the way."""
         end = t + h
-        eps = 1e-13 * max(1.0, abs(end))
+        eps = 1e-12 * max(1.0, abs(end))  # "at" a time: a tick's k interval is rounded
         tn, count = t, 0
         while True:
-            timed = self.next_time is not None and self.next_time <= end + eps
-            stop = min(max(self.next_time, tn), end) if timed else end
+            due = self._due()
+            timed = due is not None and due < end - eps  # (at t + H: the next step's)
+            stop = max(due, tn) if timed else end
             x, te = self._segment(tn, stop, self.x)
             tn = stop if te is None else te
             self._put(tn, x)
             ask, terminate = self.slave.completedIntegratorStep()
             if terminate:
                 raise ExchangeFailed(f"{self.where}: asked to terminate at t = {tn:.6g} s")
-            if te is not None or (timed and tn >= stop) or ask:
-                self._event(tn, x)
+            if te is not None or timed or ask:
+                ticking = [vr for vr in self.clocks if self._tick_time(vr) <= tn + eps] \
+                    if te is None else []
+                self._event(tn, x, ticking)
                 count += 1
                 if count > MAX_EVENTS:
                     raise ExchangeFailed(

@@ -95,23 +95,28 @@ class Relay(Fmi3SlaveBase, ModelExchange):
 
 @pytest.fixture(scope="module")
 def relay_fmi2(tmp_path_factory):
-    """The C relay compiled into an FMI 2 model-exchange FMU (skipped without a C
-    compiler)."""
+    """The C relay compiled into an FMI 2 model-exchange FMU."""
+    return _compiled_fmu(tmp_path_factory.mktemp("relay2"), "relay_me_fmi2", "relay",
+                         "linux64")
+
+
+def _compiled_fmu(folder: Path, source: str, identifier: str, platform: str) -> Path:
+    """``fmu_sources/<source>.c`` compiled with its model description into an FMU (its
+    binary under binaries/<platform>/<identifier>.so); skipped without a C compiler."""
     cc = shutil.which("cc") or shutil.which("gcc")
     if cc is None:
-        pytest.skip("no C compiler to build the FMI 2 model-exchange FMU")
+        pytest.skip("no C compiler to build the test FMU")
     import fmpy
 
-    folder = tmp_path_factory.mktemp("relay2")
-    binary = folder / "binaries" / "linux64" / "relay.so"
+    binary = folder / "binaries" / platform / f"{identifier}.so"
     binary.parent.mkdir(parents=True)
     subprocess.run([cc, "-shared", "-fPIC", "-O2", "-I",
                     str(Path(fmpy.__file__).parent / "c-code"),
-                    str(SOURCES / "relay_me_fmi2.c"), "-o", str(binary)], check=True)
-    fmu = folder / "relay2.fmu"
+                    str(SOURCES / f"{source}.c"), "-o", str(binary)], check=True)
+    fmu = folder / f"{source}.fmu"
     with zipfile.ZipFile(fmu, "w") as z:
-        z.write(SOURCES / "relay_me_fmi2.xml", "modelDescription.xml")
-        z.write(binary, "binaries/linux64/relay.so")
+        z.write(SOURCES / f"{source}.xml", "modelDescription.xml")
+        z.write(binary, f"binaries/{platform}/{identifier}.so")
     return fmu
 
 
@@ -287,3 +292,66 @@ def test_a_chattering_fmu_fails_its_step_in_one_line(relay_fmi2):
     r = _run(relay_fmi2, lo=0.3, hi=0.3)
     assert r.verdict == "partial"
     assert "1000 events between t = " in r.message and "chattering" in r.message
+
+
+# ------------------------------------------------------------------ FMI 3 clocks
+@pytest.fixture(scope="module")
+def sampled_pi(tmp_path_factory):
+    """The C sampled PI controller with its 10 ms clock (FMI 3 model exchange)."""
+    return _compiled_fmu(tmp_path_factory.mktemp("pi3"), "sampled_pi_me_fmi3", "sampled_pi",
+                         "x86_64-linux")
+
+
+@pytest.mark.parametrize("law, ki", [(None, 10.0), (b"P", 0.0), ("50", 0.0)])
+def test_a_clocked_fmu_samples_at_its_own_ticks(sampled_pi, law, ki):
+    """A sampled PI controller FMU whose clock ticks every 10 ms, run at a 5 ms macro
+    step: it samples the stroke at its ticks only and holds its output between them, as
+    the built-in SampledPID of the same law and period does (to 1e-12). Its Binary
+    parameter ``law`` (bytes, or hex digits: 0x50 is "P") takes the integral out."""
+    from pipeline.solver.cosim import SampledPID
+
+    goal, kp = S0 + 0.04, 25.0
+    parameters = {"kp": kp, "ki": 10.0, "r": goal, **({"law": law} if law else {})}
+    fmu = FMU(sampled_pi, inputs={"y": "q:slide.d"}, outputs={"u": "lift"},
+              parameters=parameters)
+    r = cosimulate(_sim(), [fmu], T_END, H, coupling_error=False)
+    ref = cosimulate(_sim(), [SampledPID("q:slide.d", "lift", goal, kp, ki, period=0.01)],
+                     T_END, H, coupling_error=False)
+    assert np.abs(r.q - ref.q).max() < 1e-12 and r.q[-1, 0] - S0 > 0.01
+    every = cosimulate(_sim(), [SampledPID("q:slide.d", "lift", goal, kp, ki, period=H)],
+                       T_END, H, coupling_error=False)
+    assert np.abs(every.q - r.q).max() > 1e-5  # its own rhythm, not the macro step's
+
+
+def test_what_clocks_are_not_run_is_said_in_one_line(sampled_pi, tmp_path):
+    """A clock that is not a periodic input clock of constant interval, a co-simulation
+    FMU with clocks, and a Binary parameter that is neither bytes nor hex: one line each,
+    before anything runs."""
+    from pipeline.core.errors import ConfigError
+
+    def edited(old, new):
+        out = tmp_path / f"edited{len(list(tmp_path.iterdir()))}.fmu"
+        with zipfile.ZipFile(sampled_pi) as src, zipfile.ZipFile(out, "w") as dst:
+            for item in src.infolist():
+                data = src.read(item)
+                if item.filename == "modelDescription.xml":
+                    assert old in data.decode()
+                    data = data.decode().replace(old, new).encode()
+                dst.writestr(item, data)
+        return out
+
+    io = {"inputs": {"y": "q:slide.d"}, "outputs": {"u": "lift"}}
+    triggered = edited('intervalVariability="constant" intervalDecimal="0.01"',
+                       'intervalVariability="triggered"')
+    with pytest.raises(ConfigError, match=r"clock 'tick' \(input, intervalVariability "
+                                          r"'triggered'\): this master ticks periodic input "
+                                          r"clocks of a constant interval"):
+        cosimulate(_sim(), [FMU(triggered, **io)], 0.1, H)
+    cs = edited('<ModelExchange modelIdentifier="sampled_pi"/>',
+                '<CoSimulation modelIdentifier="sampled_pi"/>')
+    with pytest.raises(ConfigError, match=r"a co-simulation FMU with clocks \(\['tick'\]\): "
+                                          r"they are not run here"):
+        cosimulate(_sim(), [FMU(cs, **io)], 0.1, H)
+    with pytest.raises(ConfigError, match=r"parameter 'law': expected bytes, or their hex "
+                                          r"digits as text \(a Binary\), got 'P'"):
+        cosimulate(_sim(), [FMU(sampled_pi, **io, parameters={"law": "P"})], 0.1, H)
