@@ -13,6 +13,10 @@ inside a step sets x at its end.
 The reference, built here: the same loop around a Simulator by hand, the relay advanced
 over each macro step in closed form with its input held (x is exponential between
 switches; each switch time is tau ln((x - x_target) / (threshold - x_target))).
+
+FMI 3 clocks: a sampled PI controller written in C as an FMI 3 model-exchange FMU with a
+10 ms periodic input clock (``fmu_sources/sampled_pi_me_fmi3.c``), against the built-in
+SampledPID of the same law and period (pipeline.solver.cosim, written independently).
 """
 
 from __future__ import annotations
