@@ -73,27 +73,27 @@ def history_values(history: Any, times: np.ndarray, name: str = "history") -> np
     """:func:`history_value` at each of ``times`` (k,) s: at once for a driver (drivers take
     arrays of times) or an object with ``values_at(times)`` (a controller: its
     reference's), point by point otherwise (a user's callable)."""
-    times = np.asarray(times, dtype=float).reshape(-1)
-    if isinstance(history, Driver):
-        return np.broadcast_to(np.asarray(history.value(times), dtype=float),
-                               times.shape).copy()
-    many = getattr(history, "values_at", None)
-    if callable(many):
-        return np.asarray(many(times), dtype=float).reshape(times.shape)
-    return np.array([history_value(history, float(t), name) for t in times], dtype=float)
+    return _at_times(history, times, "value", "values_at",
+                     lambda t: history_value(history, t, name))
 
 
 def history_rates(history: Any, times: np.ndarray) -> np.ndarray:
     """:func:`history_rate` at each of ``times`` (k,) s, at once where
     :func:`history_values` is."""
+    return _at_times(history, times, "rate", "rates_at", lambda t: history_rate(history, t))
+
+
+def _at_times(history, times, method: str, many: str, one) -> np.ndarray:
+    """(k,) a driver's ``method`` at the ``times``, or the history's own ``many``(times),
+    else ``one``(t) at each."""
     times = np.asarray(times, dtype=float).reshape(-1)
     if isinstance(history, Driver):
-        return np.broadcast_to(np.asarray(history.rate(times), dtype=float),
+        return np.broadcast_to(np.asarray(getattr(history, method)(times), dtype=float),
                                times.shape).copy()
-    many = getattr(history, "rates_at", None)
-    if callable(many):
-        return np.asarray(many(times), dtype=float).reshape(times.shape)
-    return np.array([history_rate(history, float(t)) for t in times], dtype=float)
+    f = getattr(history, many, None)
+    if callable(f):
+        return np.asarray(f(times), dtype=float).reshape(times.shape)
+    return np.array([one(float(t)) for t in times], dtype=float)
 
 
 def history_rate(history: Any, t: float) -> float:
