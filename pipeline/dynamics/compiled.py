@@ -154,6 +154,15 @@ def _mmt_add(X, Y, c, out):
 
 
 @njit(cache=True, inline='always')
+def _atb(X, Y, out):
+    """out = X^T Y for 4x4."""
+    for i in range(4):
+        for j in range(4):
+            out[i, j] = X[0, i] * Y[0, j] + X[1, i] * Y[1, j] + X[2, i] * Y[2, j] \
+                + X[3, i] * Y[3, j]
+
+
+@njit(cache=True, inline='always')
 def _affine_inverse(A, out):
     """out = A^{-1} for an affine 4x4 [R t; 0 1] (R invertible, not necessarily a
     rotation: a flexible frame's is I + a small skew part)."""
@@ -289,15 +298,19 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G, 
         _mmt_add(T1, Al, 1.0, Jc[li])
         for r in range(4):
             mc[li, r] += T1[r, 3]
+        if m:
+            _atb(Al, Al, Y)  # A^T A: M_ab = (A C''_ab) : A = (A^T A) : C''_ab
         for a in range(m):
             ia = idx[b, a]
-            # own[a] = A N_a^T A^T (for M_ia += W_i : own[a]); M_ab += (A C''_ab) : A
+            # own[a] = A N_a^T A^T (for M_ia += W_i : own[a])
             T1[:] = 0.0
             _mmt_add(Al, N[a], 1.0, T1)
             _mmt_add(T1, Al, 1.0, own[li, a])
-            for c in range(m):
-                _mm(Al, Cpp[b, a, c], T2)
-                M[ia, idx[b, c]] += _frob(T2, Al)
+            for c in range(a, m):  # C''_ba = C''_ab^T and A^T A symmetric: M_ba = M_ab
+                v = _frob(Y, Cpp[b, a, c])
+                M[ia, idx[b, c]] += v
+                if c != a:
+                    M[idx[b, c], ia] += v
             s = 0.0
             for k in range(4):
                 for j in range(4):
@@ -324,14 +337,20 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G, 
                         for r in range(4):
                             Z[r, j] += Al[r, k] * sjk
         _mmt_add(Z, Al, 1.0, Hc[li])
-        # h_a += A : (A'' N_a + 2 A' G_a^T),  G_a = sum_c C''_ac eta'_c
+        # h_a += A : (A'' N_a + 2 A' G_a^T) = (A''^T A) : N_a + 2 (A'^T A) : G_a^T,
+        # G_a = sum_c C''_ac eta'_c
+        if m:
+            _atb(Add[li], Al, T1)
+            _atb(Ad[li], Al, T2)
         for a in range(m):
             Gm[a] = 0.0
             for c in range(m):
                 Gm[a] += qd[idx[b, c]] * Cpp[b, a, c]
-            _mm(Add[li], N[a], T2)
-            _mmt_add(Ad[li], Gm[a], 2.0, T2)
-            h[idx[b, a]] += _frob(Al, T2)
+            v = _frob(T1, N[a])
+            for k in range(4):
+                for j in range(4):
+                    v += 2.0 * T2[k, j] * Gm[a, j, k]
+            h[idx[b, a]] += v
     # composites, leaves first
     for o in range(order.shape[0] - 1, -1, -1):
         c = order[o]
