@@ -44,6 +44,7 @@ there. The estimate costs the co-simulation once more at twice the communication
 
 from __future__ import annotations
 
+import ctypes
 import logging
 import math
 from collections.abc import Mapping, Sequence
@@ -350,6 +351,7 @@ class _Slave:
             if self.exchange:
                 from pipeline.solver.model_exchange import ModelExchange
 
+                self.clocks = _fixed_intervals(self.slave, self.clocks, self.where)
                 self.me = ModelExchange(self.slave, self.fmi3, md.numberOfContinuousStates,
                                         md.numberOfEventIndicators, self.where, t0,
                                         self.clocks, self._tick_inputs, self._tick_outputs)
@@ -479,8 +481,10 @@ _INTEGERS = {"Integer", "Enumeration"} | {f"{u}Int{b}" for u in ("", "U") for b 
 
 def _clocks(path: Path, md, exchange: bool, where: str) -> dict[int, tuple[float, float]]:
     """{value reference: (interval, shift), s} of the FMU's clocks: periodic input clocks
-    of constant interval (FMI 3 model exchange; read from its model description, which
-    fmpy does not parse for them); a ConfigError naming any other clock."""
+    of a constant interval (read from its model description, which fmpy does not parse
+    for them) or a fixed one (None here: the FMU gives it after its initialisation,
+    :func:`_fixed_intervals`), FMI 3 model exchange; a ConfigError naming any other
+    clock."""
     clocks = [v for v in md.modelVariables if v.type == "Clock"]
     if not clocks:
         return {}
@@ -497,17 +501,36 @@ def _clocks(path: Path, md, exchange: bool, where: str) -> dict[int, tuple[float
     out = {}
     for v in clocks:
         e = timing.get(v.valueReference)
+        fixed = v.intervalVariability == "fixed"
         interval = e.get("intervalDecimal") if e is not None else None
         try:
-            interval, shift = float(interval), float(e.get("shiftDecimal", 0.0))
-        except (TypeError, ValueError):
+            shift = float(e.get("shiftDecimal", 0.0))
+            interval = 1.0 if fixed else float(interval)
+        except (TypeError, ValueError, AttributeError):
             interval = shift = math.nan
-        if v.causality != "input" or v.intervalVariability != "constant" \
+        if v.causality != "input" or v.intervalVariability not in ("constant", "fixed") \
                 or not (interval > 0 and math.isfinite(interval) and shift >= 0):
             raise ConfigError(f"{where}: clock {v.name!r} ({v.causality}, intervalVariability "
                               f"{v.intervalVariability!r}): this master ticks periodic input "
-                              "clocks of a constant interval (intervalDecimal > 0) only")
-        out[v.valueReference] = (interval, shift)
+                              "clocks of a constant (intervalDecimal > 0) or fixed interval "
+                              "only")
+        out[v.valueReference] = (None if fixed else interval, shift)
+    return out
+
+
+def _fixed_intervals(slave, clocks: dict, where: str) -> dict[int, tuple[float, float]]:
+    """``clocks`` with each fixed clock's interval, s, as the FMU gives it after its
+    initialisation (fmi3GetIntervalDecimal); a ConfigError where it gives none > 0."""
+    out = dict(clocks)
+    for vr, (interval, shift) in clocks.items():
+        if interval is None:
+            refs = (ctypes.c_uint32 * 1)(vr)
+            value, qualifier = (ctypes.c_double * 1)(), (ctypes.c_int * 1)()
+            slave.getIntervalDecimal(refs, value, qualifier)
+            if qualifier[0] == 0 or not (value[0] > 0 and math.isfinite(value[0])):
+                raise ConfigError(f"{where}: clock (value reference {vr}): its fixed interval "
+                                  f"is not known after its initialisation (got {value[0]!r})")
+            out[vr] = (float(value[0]), shift)
     return out
 
 

@@ -329,32 +329,57 @@ def test_a_clocked_fmu_samples_at_its_own_ticks(sampled_pi, law, ki):
     assert np.abs(every.q - r.q).max() > 1e-5  # its own rhythm, not the macro step's
 
 
+#: the test FMU's clock as its model description declares it
+CONSTANT = 'intervalVariability="constant" intervalDecimal="0.01"'
+
+
+def _edited(fmu: Path, folder: Path, old: str, new: str) -> Path:
+    """A copy of ``fmu`` whose modelDescription.xml has ``old`` replaced by ``new``."""
+    out = folder / f"edited{len(list(folder.iterdir()))}.fmu"
+    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(out, "w") as dst:
+        for item in src.infolist():
+            data = src.read(item)
+            if item.filename == "modelDescription.xml":
+                assert old in data.decode()
+                data = data.decode().replace(old, new).encode()
+            dst.writestr(item, data)
+    return out
+
+
+def test_a_fixed_clocks_interval_is_the_one_the_fmu_gives(sampled_pi, tmp_path):
+    """The same FMU with its clock declared "fixed" (no interval in its model description)
+    and its period parameter at 20 ms: the master asks the FMU for the interval after its
+    initialisation and ticks at it, the built-in SampledPID at 20 ms to the bit."""
+    from pipeline.solver.cosim import SampledPID
+
+    fixed = _edited(sampled_pi, tmp_path, CONSTANT, 'intervalVariability="fixed"')
+    goal, kp = S0 + 0.04, 25.0
+    r = cosimulate(_sim(), [FMU(fixed, inputs={"y": "q:slide.d"}, outputs={"u": "lift"},
+                                parameters={"kp": kp, "ki": 10.0, "r": goal,
+                                            "period": 0.02})], T_END, H, coupling_error=False)
+    ref = cosimulate(_sim(), [SampledPID("q:slide.d", "lift", goal, kp, 10.0, period=0.02)],
+                     T_END, H, coupling_error=False)
+    assert np.abs(r.q - ref.q).max() < 1e-12
+    ten = cosimulate(_sim(), [SampledPID("q:slide.d", "lift", goal, kp, 10.0, period=0.01)],
+                     T_END, H, coupling_error=False)
+    assert np.abs(ten.q - r.q).max() > 1e-5
+
+
 def test_what_clocks_are_not_run_is_said_in_one_line(sampled_pi, tmp_path):
-    """A clock that is not a periodic input clock of constant interval, a co-simulation
-    FMU with clocks, and a Binary parameter that is neither bytes nor hex: one line each,
-    before anything runs."""
+    """A clock that is not a periodic input clock of a constant or fixed interval, a
+    co-simulation FMU with clocks, and a Binary parameter that is neither bytes nor hex:
+    one line each, before anything runs."""
     from pipeline.core.errors import ConfigError
 
-    def edited(old, new):
-        out = tmp_path / f"edited{len(list(tmp_path.iterdir()))}.fmu"
-        with zipfile.ZipFile(sampled_pi) as src, zipfile.ZipFile(out, "w") as dst:
-            for item in src.infolist():
-                data = src.read(item)
-                if item.filename == "modelDescription.xml":
-                    assert old in data.decode()
-                    data = data.decode().replace(old, new).encode()
-                dst.writestr(item, data)
-        return out
-
     io = {"inputs": {"y": "q:slide.d"}, "outputs": {"u": "lift"}}
-    triggered = edited('intervalVariability="constant" intervalDecimal="0.01"',
-                       'intervalVariability="triggered"')
+    triggered = _edited(sampled_pi, tmp_path, CONSTANT, 'intervalVariability="triggered"')
     with pytest.raises(ConfigError, match=r"clock 'tick' \(input, intervalVariability "
                                           r"'triggered'\): this master ticks periodic input "
-                                          r"clocks of a constant interval"):
+                                          r"clocks of a constant \(intervalDecimal > 0\) or "
+                                          r"fixed interval only"):
         cosimulate(_sim(), [FMU(triggered, **io)], 0.1, H)
-    cs = edited('<ModelExchange modelIdentifier="sampled_pi"/>',
-                '<CoSimulation modelIdentifier="sampled_pi"/>')
+    cs = _edited(sampled_pi, tmp_path, '<ModelExchange modelIdentifier="sampled_pi"/>',
+                 '<CoSimulation modelIdentifier="sampled_pi"/>')
     with pytest.raises(ConfigError, match=r"a co-simulation FMU with clocks \(\['tick'\]\): "
                                           r"they are not run here"):
         cosimulate(_sim(), [FMU(cs, **io)], 0.1, H)

@@ -4,7 +4,9 @@
  * and sets its clocked output
  *     u = kp e + x,   e = r - y,   x <- x + T ki e
  * (the law of pipeline.solver.cosim.SampledPID without derivative, feed-forward or
- * limits), held between ticks. Its Binary parameter "law" selects "PI" (default) or "P"
+ * limits), held between ticks. T is its parameter "period", which its model description
+ * repeats as the clock's constant interval (or, edited to a "fixed" clock, the importer
+ * asks for it: fmi3GetIntervalDecimal). Its Binary parameter "law" selects "PI" (default) or "P"
  * (x stays 0). No continuous states, no event indicators.
  *
  * Only the functions a model-exchange importer calls are implemented; the others exist
@@ -17,8 +19,7 @@
 
 typedef int Status;
 enum { OK = 0, WARNING = 1, DISCARD = 2, ERROR = 3 };
-enum { VR_TIME, VR_TICK, VR_Y, VR_U, VR_KP, VR_KI, VR_R, VR_LAW, N_VR };
-#define PERIOD 0.01
+enum { VR_TIME, VR_TICK, VR_Y, VR_U, VR_KP, VR_KI, VR_R, VR_LAW, VR_PERIOD, N_VR };
 
 typedef struct {
     double v[N_VR];
@@ -39,6 +40,7 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String name, fmi3String token,
     if (!c) return NULL;
     c->v[VR_KP] = 20.0;
     c->v[VR_KI] = 5.0;
+    c->v[VR_PERIOD] = 0.01;
     c->pi = 1;
     return c;
 }
@@ -71,7 +73,8 @@ Status fmi3SetFloat64(fmi3Instance inst, const fmi3ValueReference vr[], size_t n
     size_t i;
     for (i = 0; i < n; i++) {
         if (vr[i] == VR_Y && !c->ticking) return ERROR; /* clocked: set at its tick only */
-        if (vr[i] != VR_Y && vr[i] != VR_KP && vr[i] != VR_KI && vr[i] != VR_R) return ERROR;
+        if (vr[i] != VR_Y && vr[i] != VR_KP && vr[i] != VR_KI && vr[i] != VR_R &&
+            vr[i] != VR_PERIOD) return ERROR;
         c->v[vr[i]] = values[i];
     }
     return OK;
@@ -95,6 +98,15 @@ Status fmi3SetClock(fmi3Instance inst, const fmi3ValueReference vr[], size_t n,
     return OK;
 }
 
+Status fmi3GetIntervalDecimal(fmi3Instance inst, const fmi3ValueReference vr[], size_t n,
+                              fmi3Float64 intervals[], int qualifiers[]) {
+    Controller *c = inst;
+    if (n != 1 || vr[0] != VR_TICK) return ERROR;
+    intervals[0] = c->v[VR_PERIOD];
+    qualifiers[0] = 2; /* fmi3IntervalChanged */
+    return OK;
+}
+
 Status fmi3UpdateDiscreteStates(fmi3Instance inst, fmi3Boolean *again, fmi3Boolean *terminate,
                                 fmi3Boolean *nominals, fmi3Boolean *values,
                                 fmi3Boolean *timed, fmi3Float64 *next) {
@@ -102,7 +114,7 @@ Status fmi3UpdateDiscreteStates(fmi3Instance inst, fmi3Boolean *again, fmi3Boole
     if (c->ticking) { /* the sample: its output, then the integral */
         double e = c->v[VR_R] - c->v[VR_Y];
         c->v[VR_U] = c->v[VR_KP] * e + c->x;
-        if (c->pi) c->x += PERIOD * c->v[VR_KI] * e;
+        if (c->pi) c->x += c->v[VR_PERIOD] * c->v[VR_KI] * e;
         c->ticking = 0; /* a clock is active for one event only */
     }
     *again = *terminate = *nominals = *values = *timed = fmi3False;
@@ -133,7 +145,7 @@ STUB(fmi3ExitConfigurationMode) STUB(fmi3FreeFMUState) STUB(fmi3GetAdjointDeriva
 STUB(fmi3GetBinary) STUB(fmi3GetBoolean) STUB(fmi3GetClock)
 STUB(fmi3GetDirectionalDerivative) STUB(fmi3GetFMUState) STUB(fmi3GetFloat32)
 STUB(fmi3GetInt16) STUB(fmi3GetInt32) STUB(fmi3GetInt64) STUB(fmi3GetInt8)
-STUB(fmi3GetIntervalDecimal) STUB(fmi3GetIntervalFraction)
+STUB(fmi3GetIntervalFraction)
 STUB(fmi3GetNumberOfVariableDependencies) STUB(fmi3GetOutputDerivatives)
 STUB(fmi3GetShiftDecimal) STUB(fmi3GetShiftFraction) STUB(fmi3GetString) STUB(fmi3GetUInt16)
 STUB(fmi3GetUInt32) STUB(fmi3GetUInt64) STUB(fmi3GetUInt8) STUB(fmi3GetVariableDependencies)
