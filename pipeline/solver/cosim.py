@@ -351,7 +351,9 @@ class _Slave:
             if self.exchange:
                 from pipeline.solver.model_exchange import ModelExchange
 
-                self.clocks = _fixed_intervals(self.slave, self.clocks, self.where)
+                self.clocks = _fixed_intervals(
+                    self.slave, self.clocks,
+                    {v.valueReference: v.name for v in md.modelVariables}, self.where)
                 self.me = ModelExchange(self.slave, self.fmi3, md.numberOfContinuousStates,
                                         md.numberOfEventIndicators, self.where, t0,
                                         self.clocks, self._tick_inputs, self._tick_outputs)
@@ -497,30 +499,34 @@ def _clocks(path: Path, md, exchange: bool, where: str) -> dict[int, tuple[float
 
     with zipfile.ZipFile(path) as z:
         root = ElementTree.fromstring(z.read("modelDescription.xml"))
-    timing = {int(e.get("valueReference")): e for e in root.iter("Clock")}
+    timing = {int(e.get("valueReference")): e.attrib for e in root.iter("Clock")}
+
+    def decimal(v, key, default=None) -> float:
+        try:
+            return float(timing.get(v.valueReference, {}).get(key, default))
+        except (TypeError, ValueError):
+            return math.nan
+
     out = {}
     for v in clocks:
-        e = timing.get(v.valueReference)
         fixed = v.intervalVariability == "fixed"
-        interval = e.get("intervalDecimal") if e is not None else None
-        try:
-            shift = float(e.get("shiftDecimal", 0.0))
-            interval = 1.0 if fixed else float(interval)
-        except (TypeError, ValueError, AttributeError):
-            interval = shift = math.nan
+        shift = decimal(v, "shiftDecimal", 0.0)
+        interval = None if fixed else decimal(v, "intervalDecimal")
         if v.causality != "input" or v.intervalVariability not in ("constant", "fixed") \
-                or not (interval > 0 and math.isfinite(interval) and shift >= 0):
+                or not shift >= 0 or not (fixed or (interval > 0 and math.isfinite(interval))):
             raise ConfigError(f"{where}: clock {v.name!r} ({v.causality}, intervalVariability "
                               f"{v.intervalVariability!r}): this master ticks periodic input "
                               "clocks of a constant (intervalDecimal > 0) or fixed interval "
                               "only")
-        out[v.valueReference] = (None if fixed else interval, shift)
+        out[v.valueReference] = (interval, shift)
     return out
 
 
-def _fixed_intervals(slave, clocks: dict, where: str) -> dict[int, tuple[float, float]]:
+def _fixed_intervals(slave, clocks: dict, names: dict, where: str
+                     ) -> dict[int, tuple[float, float]]:
     """``clocks`` with each fixed clock's interval, s, as the FMU gives it after its
-    initialisation (fmi3GetIntervalDecimal); a ConfigError where it gives none > 0."""
+    initialisation (fmi3GetIntervalDecimal); a ConfigError naming the clock (``names``:
+    {value reference: name}) where it gives none > 0."""
     out = dict(clocks)
     for vr, (interval, shift) in clocks.items():
         if interval is None:
@@ -528,8 +534,8 @@ def _fixed_intervals(slave, clocks: dict, where: str) -> dict[int, tuple[float, 
             value, qualifier = (ctypes.c_double * 1)(), (ctypes.c_int * 1)()
             slave.getIntervalDecimal(refs, value, qualifier)
             if qualifier[0] == 0 or not (value[0] > 0 and math.isfinite(value[0])):
-                raise ConfigError(f"{where}: clock (value reference {vr}): its fixed interval "
-                                  f"is not known after its initialisation (got {value[0]!r})")
+                raise ConfigError(f"{where}: clock {names[vr]!r}: its fixed interval is not "
+                                  f"known after its initialisation (got {value[0]!r})")
             out[vr] = (float(value[0]), shift)
     return out
 
@@ -545,8 +551,8 @@ def _start(v) -> float:
 
 
 def _usable(v, causalities, text: bool = False) -> bool:
-    """Can the master set or read FMU variable v: a number (or, ``text``, a String: a
-    parameter's) of one of ``causalities``?"""
+    """Can the master set or read FMU variable v: a number (or, ``text``, a String or a
+    Binary: a parameter's) of one of ``causalities``?"""
     return v.causality in causalities and (v.type in _SETTERS
                                            or (text and v.type in ("String", "Binary")))
 

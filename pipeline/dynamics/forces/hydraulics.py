@@ -317,12 +317,6 @@ class CounterbalanceValve:
         """Is the spool's opening a state (a first-order lag behind its pilot)?"""
         return self.time_constant is not None
 
-    def static_opening(self, pressure: float, pilot: float) -> float:
-        """The opening a_s (0..1) at the chamber's ``pressure`` and the ``pilot`` (the
-        other chamber's), Pa gauge."""
-        return min(max((pressure + self.pilot_ratio * pilot - self.setting)
-                       / self.opening_range, 0.0), 1.0)
-
     def parameters(self) -> list[float]:
         """(side 1 or 2, K = Q_nom / sqrt(dp_nom), setting, pilot ratio, opening range,
         line volume, opening and closing time constants, 0 without a lag): the packed
@@ -631,7 +625,7 @@ class HydraulicCylinder(CompiledElement, LineElement):
             # chamber's valve is closed (it holds)
             pc, pilot = (p[0], p[1]) if cb.side == "a" else (p[1], p[0])
             p.append(0.0 if np.isnan(pc) or np.isnan(pilot) else
-                     cb.static_opening(pc, pilot))
+                     counterbalance_opening(self.parameters(), float(pc), float(pilot)))
         if self.spool_order:  # a controller's spool starts centred
             u = 0.0 if self.controlled else \
                 min(max(history_value(self.command, 0.0, self.name), -1.0), 1.0)
