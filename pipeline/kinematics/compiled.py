@@ -29,7 +29,7 @@ Examples
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numba import njit
@@ -85,7 +85,8 @@ class CompiledMechanism:
     ``Mechanism.table``), order (L - 1,) links in placement order after the root, slot
     (L,) their step; loops (K, 2) steps of each loop's two sides; depends (L, n) whether
     a link's pose depends on a coordinate (dA is zero elsewhere: the derivative products
-    are skipped there); loop_depends (K, n) the same for the closure rows of each loop.
+    are skipped there); loop_depends (K, n) the same for the closure rows of each loop;
+    derive (L,) whether a link's dA is complete (all True; :meth:`derivatives_for`).
     """
 
     n: int
@@ -97,13 +98,33 @@ class CompiledMechanism:
     loops: np.ndarray
     depends: np.ndarray
     loop_depends: np.ndarray
+    derive: np.ndarray
 
     def arrays(self) -> tuple:
         """The arrays in the order of the kernels' arguments (after q, qd, rates)."""
         s = self.steps
         return (self.n_links, self.root, s.frm, s.n_modes, s.eta, s.pose, s.dS, s.n_motions,
                 s.kind, s.gen, s.gen2, s.qi, s.tail, self.order, self.slot, self.loops,
-                self.depends, self.loop_depends, s.fast, s.fastC, s.fastq, s.second, s.hess)
+                self.depends, self.loop_depends, self.derive, s.fast, s.fastC, s.fastq,
+                s.second, s.hess)
+
+    def derivatives_for(self, links) -> CompiledMechanism:
+        """This mechanism evaluated with dA complete only for ``links`` (indices), the
+        links the loops close on (the closure Jacobian reads them) and their ancestors;
+        every other link's dA holds only the columns of its own joint's and frame's
+        coordinates (what the inertia terms read), zero elsewhere. Why: a link's complete
+        dA costs a 4x4 product per coordinate above it, O(N^2) for a chain of N links,
+        where the equations of motion need it only at the force elements' markers and
+        the loops' ends."""
+        derive = np.zeros(self.n_links, dtype=np.bool_)
+        frm = self.steps.frm
+        for li in np.concatenate([np.asarray(links, dtype=np.int64).ravel(),
+                                  frm[self.loops.ravel()]]):
+            li = int(li)
+            while li != self.root and not derive[li]:
+                derive[li] = True
+                li = int(frm[self.slot[li]])
+        return replace(self, derive=derive)
 
 
 @dataclass(frozen=True)
@@ -185,7 +206,8 @@ def compile_mechanism(mech) -> CompiledMechanism:
             loop_depends[kk] |= depends[steps[s].frm]
             loop_depends[kk, steps[s].local] = True
     return CompiledMechanism(mech.n, len(mech.links), int(mech.placement[0]), cs, order,
-                             slot, loops, depends, loop_depends)
+                             slot, loops, depends, loop_depends,
+                             np.ones(len(mech.links), dtype=np.bool_))
 
 
 @dataclass(frozen=True)
@@ -373,11 +395,12 @@ def _step(s, q, qd, rates, n_modes, eta, pose, dS, n_motions, kind, gen, gen2, q
 
 @njit(cache=True)
 def _place(f, s, A, dA, Ad, Add, rates, n_modes, eta, n_motions, qi, M, dMe, dMx, Md, Mdd,
-           P, dP, Pd, Pdd, depends):
-    """Global pose P = A_f M of step s's end and its derivatives and rates."""
+           P, dP, Pd, Pdd, depends, inherit):
+    """Global pose P = A_f M of step s's end and its derivatives and rates; without
+    ``inherit`` only the derivatives in the step's own coordinates (dP must be zero)."""
     n = dA.shape[1]
     _mm(A[f], M, P)
-    for i in range(n):
+    for i in range(n if inherit else 0):
         if depends[f, i]:
             _mm(dA[f, i], M, dP[i])
         else:
@@ -447,7 +470,8 @@ def _fast_step(s, q, qd, rates, fast, fastC, fastq, M, dM, Md, Mdd):
 
 @njit(cache=True)
 def _kernel(q, qd, rates, L, root, frm, n_modes, eta, pose, dS, n_motions, kind, gen, gen2, qi,
-            tail, order, slot, loops, depends, loop_depends, fast, fastC, fastq, second, hess):
+            tail, order, slot, loops, depends, loop_depends, derive, fast, fastC, fastq, second,
+            hess):
     n = q.shape[0]
     S = frm.shape[0]
     MM = dS.shape[1]
@@ -477,7 +501,7 @@ def _kernel(q, qd, rates, L, root, frm, n_modes, eta, pose, dS, n_motions, kind,
     for li in order:
         s = slot[li]
         _place(frm[s], s, A, dA, Ad, Add, rates, n_modes, eta, n_motions, qi, Ms[s], dMe[s],
-               dMx[s], Md[s], Mdd[s], A[li], dA[li], Ad[li], Add[li], depends)
+               dMx[s], Md[s], Mdd[s], A[li], dA[li], Ad[li], Add[li], depends, derive[li])
     K = loops.shape[0]
     r = np.zeros(6 * K)
     J = np.zeros((6 * K, n))
@@ -492,7 +516,8 @@ def _kernel(q, qd, rates, L, root, frm, n_modes, eta, pose, dS, n_motions, kind,
         for side in range(2):
             s = loops[kk, side]
             _place(frm[s], s, A, dA, Ad, Add, rates, n_modes, eta, n_motions, qi, Ms[s], dMe[s],
-                   dMx[s], Md[s], Mdd[s], P[side], dP[side], Pd[side], Pdd[side], depends)
+                   dMx[s], Md[s], Mdd[s], P[side], dP[side], Pd[side], Pdd[side], depends,
+                   True)
         o = 6 * kk
         for c in range(3):
             r[o + c] = P[0, c, 3] - P[1, c, 3]
@@ -554,5 +579,5 @@ def _values_kernel(q, qd, rates, need_d, A, dA, Ad, Add, frm, n_modes, eta, pose
                   tail, second, hess, M, dMe, dMx, Md, Mdd, F, Pw, Tw, w4[0], w4[1], w4[2],
                   w4[3], w4[4], w4[5], w4[6], w4[7], w4[8], w4[9], w4[10], hv)
         _place(frm[s], s, A, dA, Ad, Add, rates, n_modes, eta, n_motions, qi, M, dMe, dMx,
-               Md, Mdd, P[s], dP[s] if need_d else dPs, Pd[s], Pdd[s], depends)
+               Md, Mdd, P[s], dP[s] if need_d else dPs, Pd[s], Pdd[s], depends, True)
     return P, dP, Pd, Pdd

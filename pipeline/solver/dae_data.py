@@ -20,7 +20,7 @@ from pipeline.dynamics.forces.markers import ForceData
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["CompiledDae", "compile_dae", "force_factors"]
+__all__ = ["CompiledDae", "compile_dae", "derivatives_needed", "force_factors"]
 
 
 @dataclass(frozen=True)
@@ -59,11 +59,18 @@ def compile_dae(system, U: np.ndarray, P: np.ndarray, warn: bool = True) -> Comp
     forces, histories = compile_forces(system)
     K, D = system.modal_stiffness_damping
     return CompiledDae(
-        mech.compiled, system.compiled_masses, np.ascontiguousarray(K),
+        derivatives_needed(mech.compiled, forces, bool(python)), system.compiled_masses, np.ascontiguousarray(K),
         np.ascontiguousarray(D), np.array(mech.row_weights, dtype=float),
         np.asarray(U, dtype=np.int64), np.asarray(P, dtype=np.int64),
         np.array(mech.coordinate_units, dtype=float), np.array(system.gravity4, dtype=float),
         forces, histories)
+
+
+def derivatives_needed(kin, forces: ForceData, python: bool):
+    """``kin`` (a CompiledMechanism) with dA complete only where the equations of motion
+    read it: the links of the force elements' markers (and the loops' ends; every link
+    when an element is called back in Python: it may read any)."""
+    return kin if python else kin.derivatives_for(forces.link)
 
 
 def force_factors(data: CompiledDae, times: np.ndarray) -> np.ndarray:

@@ -163,9 +163,9 @@ def _lu_solve(LU, piv, b):
 
 
 @njit(cache=True)
-def _saddle(S, CU, f, g, eps, refine):
-    """(x, lambda) of S x + C^T lambda = f, C x = g by the regularised, refined solve
-    (constrained.saddle_solve_regularised)."""
+def _saddle_factor(S, CU, eps):
+    """(K, LU, pivots, s) of the regularised saddle-point matrix K = [[S, s C^T],
+    [s C, -eps s I]] (s the largest diagonal entry of S: the rows' common scale)."""
     k, m = S.shape[0], CU.shape[0]
     s = 0.0
     for i in range(k):
@@ -178,8 +178,17 @@ def _saddle(S, CU, f, g, eps, refine):
     Kr[k:, :k] = s * CU
     for i in range(m):
         Kr[k + i, k + i] = -eps * s
-    b = np.concatenate((f, s * g))
     LU, piv = _lu(Kr.copy())
+    return Kr, LU, piv, s
+
+
+@njit(cache=True)
+def _saddle_solve(Kr, LU, piv, s, f, g, eps, refine):
+    """(x, lambda) of S x + C^T lambda = f, C x = g on the factors of
+    :func:`_saddle_factor`, with ``refine`` steps of iterative refinement towards the
+    unregularised system (the regularised factors its preconditioner)."""
+    k, m = f.shape[0], g.shape[0]
+    b = np.concatenate((f, s * g))
     z = _lu_solve(LU, piv, b)
     for _ in range(refine):
         r = b - Kr @ z
@@ -187,6 +196,14 @@ def _saddle(S, CU, f, g, eps, refine):
             r[k + i] -= eps * s * z[k + i]
         z = z + _lu_solve(LU, piv, r)
     return z[:k], s * z[k:]
+
+
+@njit(cache=True)
+def _saddle(S, CU, f, g, eps, refine):
+    """(x, lambda) of S x + C^T lambda = f, C x = g by the regularised, refined solve
+    (constrained.saddle_solve_regularised)."""
+    Kr, LU, piv, s = _saddle_factor(S, CU, eps)
+    return _saddle_solve(Kr, LU, piv, s, f, g, eps, refine)
 
 
 @njit(cache=True)
@@ -287,6 +304,10 @@ def step(q0, v0, qdd0, a0, lam0, z0, zd0, b0, h, qP, vP, aP, factor, par, unit, 
     cerr = np.inf
     moved = 0.0
     R = np.empty(nk)
+    factored = False
+    Kr = LU = np.empty((0, 0))
+    piv = np.empty(0, dtype=np.int64)
+    sc = 1.0
     M, rhs, Qnc, c, C, gw, f = terms(q, v, z, factor, kin, mass, K, D, g, w, frc)
     for it in range(MAX_NEWTON):
         if it:
@@ -311,11 +332,18 @@ def step(q0, v0, qdd0, a0, lam0, z0, zd0, b0, h, qP, vP, aP, factor, par, unit, 
             sinfo[2] += 1.0
             sinfo[3] += nk
             refreshed = True
-        CU = np.zeros((m, nk))
-        for i in range(m):
-            for kk in range(nU):
-                CU[i, kk] = C[i, U[kk]]
-        x, dl = _saddle(_with_mass(S, M, U), CU, -R, -c, eps, 0)
+            factored = False
+        if not factored:
+            # factored once a step (and again after a refresh): the mass and constraint
+            # rows change by the iterations' small corrections only, while the LU of a
+            # chain of 64 bars costs as much as an evaluation of its equations
+            CU = np.zeros((m, nk))
+            for i in range(m):
+                for kk in range(nU):
+                    CU[i, kk] = C[i, U[kk]]
+            Kr, LU, piv, sc = _saddle_factor(_with_mass(S, M, U), CU, eps)
+            factored = True
+        x, dl = _saddle_solve(Kr, LU, piv, sc, -R, -c, eps, 0)
         if not np.all(np.isfinite(x)):
             return 1, q, v, qdd, a1, lam, z, zd, b1, it + 1, moved, cerr, 0.0, 0.0
         moved = 0.0
@@ -364,8 +392,8 @@ def step(q0, v0, qdd0, a0, lam0, z0, zd0, b0, h, qP, vP, aP, factor, par, unit, 
 
 @njit(cache=True)
 def _with_mass(S, M, U):
-    """The iteration matrix: the kept remainder S (nk, nk) plus the mass matrix M_UU of the
-    current iterate in its dynamic block."""
+    """The iteration matrix: the kept remainder S (nk, nk) plus the mass matrix M_UU (of
+    the step's first iterate) in its dynamic block."""
     St = S.copy()
     for a in range(U.shape[0]):
         for b in range(U.shape[0]):
@@ -383,7 +411,7 @@ def _jacobian(q, v, qdd, lam, z, zd, G, H, M, bp, gp, cz, factor, unit, zunit, U
 
     Why the mass matrix is taken out: it is the largest part of the dynamic block (the
     rest is O(h) damping and gyroscopic terms and O(h^2) stiffness), and the one that
-    changes fastest as a machine moves. :func:`step` adds the current iterate's M_UU back
+    changes fastest as a machine moves. :func:`step` adds the step's own M_UU back
     (:func:`_with_mass`), so the matrix it keeps between refreshes goes stale only in its
     small part: a swinging 64-bar chain needs far fewer finite-difference refreshes."""
     nU, nz = U.shape[0], z.shape[0]

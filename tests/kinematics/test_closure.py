@@ -159,6 +159,43 @@ def test_compiled_pass_equals_the_numpy_reference(mech, seed):
             assert _rel(a, b) < 1e-13
 
 
+@pytest.mark.parametrize("links", [(), ("L5",), ("L3", "L5")])
+def test_derivatives_for_some_links_keep_theirs_and_their_ancestors_whole(mech, links):
+    """``derivatives_for`` (what the equations of motion use: dA at the force elements'
+    markers and the loops' ends): those links', the loops' ends' and their ancestors' dA
+    equal the complete evaluation's, every other link keeps the columns of its own step's coordinates (the
+    inertia terms read those) and the rest of its dA is zero; poses, rates and closure
+    rows are unchanged."""
+    from pipeline.kinematics.compiled import _kernel
+
+    q, qd = _state(mech, 5)
+    cm = mech.compiled
+    full = _kernel(q, qd, True, *cm.arrays())
+    part = _kernel(q, qd, True, *cm.derivatives_for([mech.link_index(n) for n in links])
+                   .arrays())
+    for k in (0, 2, 3, 4, 5, 6):
+        assert np.array_equal(full[k], part[k])
+    table = mech.table
+    whole = set()
+    ends = [table.steps[s].frm for pair in table.loop_slot for s in pair]
+    # the named links, the loops' ends and their ancestors, by the tree's own table
+    for li in [mech.link_index(name) for name in links] + ends:
+        while li != cm.root:
+            whole.add(li)
+            li = table.steps[table.tree_slot[li]].frm
+    for li in range(len(mech.links)):
+        if li == cm.root:
+            continue
+        if li in whole:
+            assert np.array_equal(part[1][li], full[1][li])
+        else:
+            own = list(table.steps[table.tree_slot[li]].local)
+            assert np.array_equal(part[1][li, own], full[1][li, own])
+            rest = np.setdiff1d(np.arange(mech.n), own)
+            assert not part[1][li, rest].any()
+            assert full[1][li, rest].any() or not cm.depends[li, rest].any()
+
+
 @pytest.mark.parametrize("seed", [6, 7])
 def test_compiled_step_values_equal_the_numpy_reference(mech, seed):
     """Markers, force points and joint frames are evaluated by the tree's own compiled step

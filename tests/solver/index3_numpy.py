@@ -101,6 +101,7 @@ class Index3Stepper:
         st = None
         closure_err = np.inf
         prev = 0.0
+        factors = None
         for it in range(self.MAX_NEWTON):
             try:
                 st, G = self._G(t1, q, v, qdd, lam)
@@ -113,20 +114,23 @@ class Index3Stepper:
                     or (it == self.REFRESH_AFTER and not refreshed):
                 self.S = (h, self._fd_block(t1, q, v, qdd, lam, G, bp, gp, st.terms.M[np.ix_(U, U)]))
                 refreshed, self.stale = True, False
-            S = self.S[1] + st.terms.M[np.ix_(U, U)]
-            s = self._mass_scale(S)
-            K = np.zeros((nU + m, nU + m))
-            K[:nU, :nU] = S
-            if m:
-                CU = st.C[:, U]
-                K[:nU, nU:] = s * CU.T
-                K[nU:, :nU] = s * CU
-                K[nU:, nU:] = -self.eps * s * np.eye(m)
+                factors = None
+            if factors is None:  # factored once a step and again after a refresh
+                S = self.S[1] + st.terms.M[np.ix_(U, U)]
+                s = self._mass_scale(S)
+                K = np.zeros((nU + m, nU + m))
+                K[:nU, :nU] = S
+                if m:
+                    CU = st.C[:, U]
+                    K[:nU, nU:] = s * CU.T
+                    K[nU:, :nU] = s * CU
+                    K[nU:, nU:] = -self.eps * s * np.eye(m)
+                try:
+                    factors = sla.lu_factor(K, check_finite=False)
+                except (ValueError, np.linalg.LinAlgError):
+                    return StepOutcome(None, it, "newton")
             rhs = np.concatenate([-G / bp, -s * st.c])
-            try:
-                x = sla.lu_solve(sla.lu_factor(K, check_finite=False), rhs, check_finite=False)
-            except (ValueError, np.linalg.LinAlgError):
-                return StepOutcome(None, it, "newton")
+            x = sla.lu_solve(factors, rhs, check_finite=False)
             if not np.all(np.isfinite(x)):
                 return StepOutcome(None, it, "newton")
             dq = x[:nU]

@@ -106,7 +106,31 @@ def _pendulum():
     return s, q0, q0
 
 
+def _pendulum_loaded():
+    """The open chain with a load on its first link only: the step derives the second
+    link's pose in its own coordinates only (dae_data.derivatives_needed)."""
+    s, q0, qd0 = _pendulum()
+    load = PointForce("push", ("link1", "B"), (3.0, -20.0, 0.0), offset=(-0.1, 0.02, 0.0))
+    return System(s.mechanism, s.bodies, s.gravity, forces=(load,)), q0, qd0
+
+
+def test_the_step_derives_the_poses_only_where_its_equations_read_them():
+    """dA complete at the force elements' markers and the loops' ends (and their
+    ancestors), elsewhere only in each link's own coordinates: an open chain without
+    elements has none complete, a load on its first link makes that one complete."""
+    from pipeline.solver.dae_data import compile_dae
+
+    for build, whole in ((_pendulum, []), (_pendulum_loaded, ["link1"]),
+                         (_every_kind, ["crank", "coupler", "rocker"])):
+        system, _, _ = build()
+        cs = ConstrainedSystem(system)
+        mech = system.mechanism
+        derive = compile_dae(system, cs.U, cs.P).kin.derive
+        assert sorted(mech.links[i].name for i in np.flatnonzero(derive)) == sorted(whole)
+
+
 CASES = {"excavator": (_excavator, 2e-3), "andrews": (_andrews, 1e-5),
+         "open chain loaded on its first link": (_pendulum_loaded, 2e-3),
          "every force element kind": (_every_kind, 2e-3),
          "flexible four-bar": (_flexible_four_bar, 2e-3), "open chain": (_pendulum, 2e-3),
          "second-order frames and mass moments":
