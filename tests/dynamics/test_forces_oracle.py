@@ -141,6 +141,25 @@ def test_an_element_outside_the_system_is_evaluated_on_its_own():
     _close(cyl.state_rates(s, tree, q, qd, 0.1, zc), oracle.rates(cyl, s, tree, q, qd, 0.1, zc))
 
 
+def test_a_cylinders_state_layout_is_the_one_its_compiled_rates_use():
+    """The layout (names, units, scales) is stated once (state_layout); the compiled
+    kernel counts the same states from the element's parameters, and the start values
+    come in the same number, for every combination the machine above has."""
+    from pipeline.dynamics.forces.hydraulics import HydraulicCylinder, _state_count
+
+    seen = set()
+    for f in _elements():
+        if not isinstance(f, HydraulicCylinder):
+            continue
+        n = len(f.state_layout())
+        assert n == _state_count(f.parameters()) == len(f.initial_states()) \
+            == len(f.state_scales()) == len(f.STATE_UNITS) == len(f.STATES)
+        seen.add(f.STATES)
+    assert ("p_a", "p_b", "p_s", "x_v", "v_v") in seen
+    assert ("p_a", "p_b", "p_s", "p_c", "x_v", "pid") in seen
+    assert ("p_a", "p_b", "p_c", "a_c") in seen
+
+
 def test_an_analysis_without_states_names_the_element_that_has_them():
     s, q, _, _ = _state()
     with pytest.raises(ConfigError, match="force element 'valve'.*states of its own"):

@@ -389,21 +389,37 @@ class HydraulicCylinder(CompiledElement, LineElement):
         return 2 if self.spool_frequency is not None else \
             1 if self.spool_time_constant is not None else 0
 
+    def state_layout(self) -> tuple[tuple[str, str, float], ...]:
+        """(name, unit, scale) of each of the element's own states, in the order its
+        compiled rates read and write them (``_state_count`` and ``command_rates``):
+        the chamber pressures p_a, p_b; the supply line's p_s when a pump of given flow
+        feeds it; a counterbalance valve's line p_c and, lagged, its opening a_c; the
+        spool's position x_v (and rate v_v) when it has dynamics; a controller's integral.
+        Scales: a bar for a pressure, the valve's full opening, the spool's whole travel
+        (and, second order, that per 1 / w_v). STATES, STATE_UNITS and state_scales are
+        its columns."""
+        bar = ("Pa", PRESSURE_UNIT)
+        rows = [("p_a", *bar), ("p_b", *bar)]
+        if self.pump_flow is not None:
+            rows.append(("p_s", *bar))
+        if self.counterbalance is not None:
+            rows.append(("p_c", *bar))
+        if self.counterbalance_lagged:
+            rows.append(("a_c", "1", 1.0))
+        rows += [("x_v", "1", 1.0),
+                 ("v_v", "1/s", 2 * math.pi * (self.spool_frequency or 0.0))][:self.spool_order]
+        if self.controlled:
+            rows.append(("pid", "1", 1.0))
+        return tuple(rows)
+
     @property
     def STATES(self) -> tuple[str, ...]:
-        """(p_a, p_b), the supply line's p_s when a pump of given flow feeds it, and the
-        spool's position x_v (and rate v_v) when it has dynamics."""
-        return ("p_a", "p_b") + (("p_s",) if self.pump_flow is not None else ()) \
-            + (("p_c",) if self.counterbalance is not None else ()) \
-            + (("a_c",) if self.counterbalance_lagged else ()) \
-            + ("x_v", "v_v")[:self.spool_order] + (("pid",) if self.controlled else ())
+        """The states' names (:meth:`state_layout`)."""
+        return tuple(r[0] for r in self.state_layout())
 
     @property
     def STATE_UNITS(self) -> tuple[str, ...]:
-        return ("Pa",) * (2 + (self.pump_flow is not None)
-                          + (self.counterbalance is not None)) \
-            + ("1",) * self.counterbalance_lagged \
-            + ("1", "1/s")[:self.spool_order] + (("1",) if self.controlled else ())
+        return tuple(r[1] for r in self.state_layout())
 
     @property
     def counterbalance_lagged(self) -> bool:
@@ -608,7 +624,7 @@ class HydraulicCylinder(CompiledElement, LineElement):
                 None)
 
     def initial_states(self) -> np.ndarray:
-        """(p_a, p_b[, p_s][, p_c][, a_c][, x_v[, v_v]][, pid]) at the start: pressures in
+        """The states (:meth:`state_layout`) at the start: pressures in
         Pa, NaN for a ``hold`` pressure (found at the start so that the machine is at
         rest: pipeline.dynamics.held_states); a lagged counterbalance valve open as the
         start pressures call for (closed on a held chamber); the spool at rest where the
@@ -635,13 +651,8 @@ class HydraulicCylinder(CompiledElement, LineElement):
         return np.array(p, dtype=float)
 
     def state_scales(self) -> np.ndarray:
-        """A bar for a pressure; a counterbalance valve's full opening; the spool's whole
-        travel (and, second order, that per 1 / w_v)."""
-        return np.array([PRESSURE_UNIT] * (2 + (self.pump_flow is not None)
-                                           + (self.counterbalance is not None))
-                        + [1.0] * self.counterbalance_lagged
-                        + [1.0, 2 * math.pi * (self.spool_frequency or 0.0)][:self.spool_order]
-                        + [1.0] * self.controlled)
+        """The states' scales (:meth:`state_layout`)."""
+        return np.array([r[2] for r in self.state_layout()])
 
     def stroke_at(self, system, q) -> float:
         """The stroke s (m) at coordinates q (n,): the markers' distance less
