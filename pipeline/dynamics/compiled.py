@@ -184,16 +184,26 @@ def _affine_inverse(A, out):
 def _body_terms(q, idx, m, C, Cp, Cpp, G, has_G, J, N):
     """J(eta) (4, 4) and N_a(eta) (m, 4, 4) of one body into J, N (the module docstring):
     its modal coordinates q[idx[:m]], invariants C, C'_a, C''_ab, second-order moments G."""
+    # written out element by element: as array expressions each 4x4 term allocated a
+    # temporary (an 8-mode boom's inertia call: ~100 of them)
     J[:] = C
     for a in range(m):
-        N[a] = Cp[a]
         ea = q[idx[a]]
-        J += ea * (Cp[a] + Cp[a].T)
+        for j in range(4):
+            for k in range(4):
+                N[a, j, k] = Cp[a, j, k]
+                J[j, k] += ea * (Cp[a, j, k] + Cp[a, k, j])
     for a in range(m):
         for c in range(m):
-            N[a] += q[idx[c]] * Cpp[c, a]
+            ec = q[idx[c]]
+            for j in range(4):
+                for k in range(4):
+                    N[a, j, k] += ec * Cpp[c, a, j, k]
     for a in range(m):
-        J += q[idx[a]] * (N[a] - Cp[a])  # sum_ab eta_a eta_b C''_ba
+        ea = q[idx[a]]
+        for j in range(4):
+            for k in range(4):
+                J[j, k] += ea * (N[a, j, k] - Cp[a, j, k])  # sum_ab eta_a eta_b C''_ba
     # the second-order mass moments: J += S + S^T (S = sum eta_a eta_b G_ab / 2 in the
     # first three columns), N_a[:, :3] += sum_b G_ab eta_b
     for a in range(m if has_G else 0):
@@ -324,7 +334,10 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G, 
         if m:
             T1[:] = 0.0
             for c in range(m):
-                T1 += qd[idx[b, c]] * N[c]
+                w = qd[idx[b, c]]
+                for j in range(4):
+                    for k in range(4):
+                        T1[j, k] += w * N[c, j, k]
             _mmt_add(Ad[li], T1, 2.0, Z)
             # Z += A[:, :3] S''^T, S'' = sum eta'_a eta'_b G_ab
             for j in range(4 if has_G[b] else 0):
@@ -345,7 +358,10 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G, 
         for a in range(m):
             Gm[a] = 0.0
             for c in range(m):
-                Gm[a] += qd[idx[b, c]] * Cpp[b, a, c]
+                w = qd[idx[b, c]]
+                for j in range(4):
+                    for k in range(4):
+                        Gm[a, j, k] += w * Cpp[b, a, c, j, k]
             v = _frob(T1, N[a])
             for k in range(4):
                 for j in range(4):
