@@ -87,12 +87,17 @@ def marker_point(k, q, A, dA, d, p, dp):
     """p (3,) = marker point k in ground, dp (n, 3) its derivatives dp/dq (module
     docstring; A (L, 4, 4), dA (L, n, 4, 4) the link poses and their derivatives)."""
     li = d.link[k]
-    loc = d.c0[k].copy()
+    loc = np.empty(3)
+    for r in range(3):  # element by element: no temporary per mode
+        loc[r] = d.c0[k, r]
     for a in range(d.n_modes[k]):
         qa = q[d.idx[k, a]]
-        loc += qa * d.ca[k, a]
+        for r in range(3):
+            loc[r] += qa * d.ca[k, a, r]
         for b in range(d.n_hess[k]):
-            loc += 0.5 * qa * q[d.idx[k, b]] * d.he[k, a, b]
+            w = 0.5 * qa * q[d.idx[k, b]]
+            for r in range(3):
+                loc[r] += w * d.he[k, a, b, r]
     for r in range(3):
         p[r] = A[li, r, 3] + A[li, r, 0] * loc[0] + A[li, r, 1] * loc[1] + A[li, r, 2] * loc[2]
     n = q.shape[0]
@@ -103,9 +108,12 @@ def marker_point(k, q, A, dA, d, p, dp):
     ca = np.empty(3)
     for a in range(d.n_modes[k]):
         i = d.idx[k, a]
-        ca[:] = d.ca[k, a]
+        for r in range(3):
+            ca[r] = d.ca[k, a, r]
         for b in range(d.n_hess[k]):
-            ca += d.he[k, a, b] * q[d.idx[k, b]]
+            qb = q[d.idx[k, b]]
+            for r in range(3):
+                ca[r] += qb * d.he[k, a, b, r]
         for r in range(3):
             dp[i, r] += A[li, r, 0] * ca[0] + A[li, r, 1] * ca[1] + A[li, r, 2] * ca[2]
 
@@ -148,9 +156,14 @@ def line_geometry(ka, kb, q, A, dA, d):
     da, db = np.zeros((n, 3)), np.zeros((n, 3))
     marker_point(ka, q, A, dA, d, pa, da)
     marker_point(kb, q, A, dA, d, pb, db)
-    x = pb - pa
-    length = np.sqrt(x[0] ** 2 + x[1] ** 2 + x[2] ** 2)
-    return length, (db - da) @ (x / length)
+    x0, x1, x2 = pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]
+    length = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+    u0, u1, u2 = x0 / length, x1 / length, x2 / length
+    dl = np.empty(n)
+    for i in range(n):  # written out: a BLAS call for (n, 3) @ (3,) cost more than its sums
+        dl[i] = (db[i, 0] - da[i, 0]) * u0 + (db[i, 1] - da[i, 1]) * u1 \
+            + (db[i, 2] - da[i, 2]) * u2
+    return length, dl
 
 
 @njit(cache=True)
