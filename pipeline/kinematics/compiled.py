@@ -393,30 +393,52 @@ def _step(s, q, qd, rates, n_modes, eta, pose, dS, n_motions, kind, gen, gen2, q
     _mm(W, tail[s], Mdd)
 
 
+@njit(cache=True, inline='always')
+def _mmi(X, i, Y, j, c, out, k):
+    """out[k] += c X[i] @ Y[j] on 4x4 blocks of (., 4, 4) arrays, indexed rather than
+    sliced: each slice of an array takes and drops an atomic reference count, which in
+    these loops cost as much as the products (half a rigid four-bar's evaluation)."""
+    for r in range(4):
+        x0, x1, x2, x3 = X[i, r, 0], X[i, r, 1], X[i, r, 2], X[i, r, 3]
+        for col in range(4):
+            out[k, r, col] += c * (x0 * Y[j, 0, col] + x1 * Y[j, 1, col]
+                                   + x2 * Y[j, 2, col] + x3 * Y[j, 3, col])
+
+
+@njit(cache=True, inline='always')
+def _zero(X, k):
+    for r in range(4):
+        for col in range(4):
+            X[k, r, col] = 0.0
+
+
 @njit(cache=True)
-def _place(f, s, A, dA, Ad, Add, rates, n_modes, eta, n_motions, qi, M, dMe, dMx, Md, Mdd,
-           P, dP, Pd, Pdd, depends, inherit):
-    """Global pose P = A_f M of step s's end and its derivatives and rates; without
-    ``inherit`` only the derivatives in the step's own coordinates (dP must be zero)."""
-    n = dA.shape[1]
-    _mm(A[f], M, P)
-    for i in range(n if inherit else 0):
+def _place(f, s, A, dA, nd, Ad, Add, rates, n_modes, eta, n_motions, qi, Ms, dMe, MM, dMx, KK,
+           Md, Mdd, P, dP, Pd, Pdd, n, o, depends, inherit):
+    """Global pose P[o] = A_f M_s of step s's end, its derivatives dP[o n + i] = dP/dq_i
+    and its rates Pd[o], Pdd[o]; the link poses A, Ad, Add (L, 4, 4) and dA (L nd, 4, 4) (link l's row l nd + i); the
+    steps' local matrices Ms, Md, Mdd (S, 4, 4), dMe (S MM, 4, 4), dMx (S KK, 4, 4).
+    Without ``inherit`` only the derivatives in the step's own coordinates (those rows of
+    dP must be zero)."""
+    _zero(P, o)
+    _mmi(A, f, Ms, s, 1.0, P, o)
+    base = o * n
+    for i in range(nd if inherit else 0):
+        _zero(dP, base + i)
         if depends[f, i]:
-            _mm(dA[f, i], M, dP[i])
-        else:
-            dP[i] = 0.0
+            _mmi(dA, f * nd + i, Ms, s, 1.0, dP, base + i)
     for a in range(n_modes[s]):
-        _mm_add(A[f], dMe[a], 1.0, dP[eta[s, a]])
+        _mmi(A, f, dMe, s * MM + a, 1.0, dP, base + eta[s, a])
     for i in range(n_motions[s]):
-        _mm_add(A[f], dMx[i], 1.0, dP[qi[s, i]])
+        _mmi(A, f, dMx, s * KK + i, 1.0, dP, base + qi[s, i])
     if rates:
-        Pd[:] = 0.0
-        _mm_add(Ad[f], M, 1.0, Pd)
-        _mm_add(A[f], Md, 1.0, Pd)
-        Pdd[:] = 0.0
-        _mm_add(Add[f], M, 1.0, Pdd)
-        _mm_add(Ad[f], Md, 2.0, Pdd)
-        _mm_add(A[f], Mdd, 1.0, Pdd)
+        _zero(Pd, o)
+        _mmi(Ad, f, Ms, s, 1.0, Pd, o)
+        _mmi(A, f, Md, s, 1.0, Pd, o)
+        _zero(Pdd, o)
+        _mmi(Add, f, Ms, s, 1.0, Pdd, o)
+        _mmi(Ad, f, Md, s, 2.0, Pdd, o)
+        _mmi(A, f, Mdd, s, 1.0, Pdd, o)
 
 
 @njit(cache=True, inline='always')
@@ -425,6 +447,15 @@ def _abt_add(X, Y, c, out):
     for i in range(3):
         for j in range(3):
             out[i, j] += c * (X[i, 0] * Y[j, 0] + X[i, 1] * Y[j, 1] + X[i, 2] * Y[j, 2])
+
+
+@njit(cache=True, inline='always')
+def _abt_addi(X, i, Y, j, out):
+    """out += X[i][:3, :3] @ Y[j][:3, :3]^T, indexed (see :func:`_mmi`)."""
+    for r in range(3):
+        for c in range(3):
+            out[r, c] += X[i, r, 0] * Y[j, c, 0] + X[i, r, 1] * Y[j, c, 1] \
+                + X[i, r, 2] * Y[j, c, 2]
 
 
 @njit(cache=True, inline='always')
@@ -498,16 +529,19 @@ def _kernel(q, qd, rates, L, root, frm, n_modes, eta, pose, dS, n_motions, kind,
     Ad = np.zeros((L, 4, 4))
     Add = np.zeros((L, 4, 4))
     A[root] = np.eye(4)
+    # the (., 4, 4) forms _place indexes without slicing
+    dA3, dMe3, dMx3 = dA.reshape(L * n, 4, 4), dMe.reshape(S * MM, 4, 4), \
+        dMx.reshape(S * KK, 4, 4)
     for li in order:
         s = slot[li]
-        _place(frm[s], s, A, dA, Ad, Add, rates, n_modes, eta, n_motions, qi, Ms[s], dMe[s],
-               dMx[s], Md[s], Mdd[s], A[li], dA[li], Ad[li], Add[li], depends, derive[li])
+        _place(frm[s], s, A, dA3, n, Ad, Add, rates, n_modes, eta, n_motions, qi, Ms, dMe3, MM,
+               dMx3, KK, Md, Mdd, A, dA3, Ad, Add, n, li, depends, derive[li])
     K = loops.shape[0]
     r = np.zeros(6 * K)
     J = np.zeros((6 * K, n))
     g = np.zeros(6 * K)
     P = np.zeros((2, 4, 4))
-    dP = np.zeros((2, n, 4, 4))
+    dP = np.zeros((2 * n, 4, 4))  # side 0's derivatives, then side 1's
     Pd = np.zeros((2, 4, 4))
     Pdd = np.zeros((2, 4, 4))
     E = np.zeros((3, 3))
@@ -515,9 +549,8 @@ def _kernel(q, qd, rates, L, root, frm, n_modes, eta, pose, dS, n_motions, kind,
     for kk in range(K):
         for side in range(2):
             s = loops[kk, side]
-            _place(frm[s], s, A, dA, Ad, Add, rates, n_modes, eta, n_motions, qi, Ms[s], dMe[s],
-                   dMx[s], Md[s], Mdd[s], P[side], dP[side], Pd[side], Pdd[side], depends,
-                   True)
+            _place(frm[s], s, A, dA3, n, Ad, Add, rates, n_modes, eta, n_motions, qi, Ms, dMe3,
+                   MM, dMx3, KK, Md, Mdd, P, dP, Pd, Pdd, n, side, depends, True)
         o = 6 * kk
         for c in range(3):
             r[o + c] = P[0, c, 3] - P[1, c, 3]
@@ -528,10 +561,10 @@ def _kernel(q, qd, rates, L, root, frm, n_modes, eta, pose, dS, n_motions, kind,
             if not loop_depends[kk, i]:
                 continue
             for c in range(3):
-                J[o + c, i] = dP[0, i, c, 3] - dP[1, i, c, 3]
+                J[o + c, i] = dP[i, c, 3] - dP[n + i, c, 3]
             E[:] = 0.0
-            _abt_add(dP[1, i], P[0], 1.0, E)
-            _abt_add(P[1], dP[0, i], 1.0, E)
+            _abt_addi(dP, n + i, P, 0, E)
+            _abt_addi(P, 1, dP, i, E)
             _vee_into(E, col, 0, 1.0)
             for c in range(3):
                 J[o + 3 + c, i] = col[c]
@@ -560,24 +593,32 @@ def _values_kernel(q, qd, rates, need_d, A, dA, Ad, Add, frm, n_modes, eta, pose
     Pd = np.zeros((S, 4, 4))
     Pdd = np.zeros((S, 4, 4))
     depends = np.ones((A.shape[0], n), dtype=np.bool_)  # any link: dP from its dA
-    M = np.zeros((4, 4))
-    dMe = np.zeros((MM, 4, 4))
-    dMx = np.zeros((KK, 4, 4))
-    Md = np.zeros((4, 4))
-    Mdd = np.zeros((4, 4))
+    Ms = np.zeros((S, 4, 4))
+    dMe = np.zeros((S, MM, 4, 4))
+    dMx = np.zeros((S, KK, 4, 4))
+    Md = np.zeros((S, 4, 4))
+    Mdd = np.zeros((S, 4, 4))
     F = np.zeros((KK, 4, 4))
     Pw = np.zeros((KK + 1, 4, 4))
     Tw = np.zeros((KK + 1, 4, 4))
     w4 = np.zeros((11, 4, 4))
     hv = np.zeros((MM, 3))
-    dPs = np.zeros((n, 4, 4))
+    dPs = np.zeros((n, 4, 4))  # without derivatives: the own columns' scratch (unread)
+    nd = dA.shape[1]
+    dA3, dMe3, dMx3 = dA.reshape(A.shape[0] * nd, 4, 4), dMe.reshape(S * MM, 4, 4), \
+        dMx.reshape(S * KK, 4, 4)
+    dP3 = dP.reshape(dP.shape[0] * n, 4, 4)
     for s in range(S):
         if fast[s] >= 0:
-            _fast_step(s, q, qd, rates, fast, fastC, fastq, M, dMx[0], Md, Mdd)
+            _fast_step(s, q, qd, rates, fast, fastC, fastq, Ms[s], dMx[s, 0], Md[s], Mdd[s])
         else:
             _step(s, q, qd, rates, n_modes, eta, pose, dS, n_motions, kind, gen, gen2, qi,
-                  tail, second, hess, M, dMe, dMx, Md, Mdd, F, Pw, Tw, w4[0], w4[1], w4[2],
-                  w4[3], w4[4], w4[5], w4[6], w4[7], w4[8], w4[9], w4[10], hv)
-        _place(frm[s], s, A, dA, Ad, Add, rates, n_modes, eta, n_motions, qi, M, dMe, dMx,
-               Md, Mdd, P[s], dP[s] if need_d else dPs, Pd[s], Pdd[s], depends, True)
+                  tail, second, hess, Ms[s], dMe[s], dMx[s], Md[s], Mdd[s], F, Pw, Tw, w4[0],
+                  w4[1], w4[2], w4[3], w4[4], w4[5], w4[6], w4[7], w4[8], w4[9], w4[10], hv)
+        if need_d:
+            _place(frm[s], s, A, dA3, nd, Ad, Add, rates, n_modes, eta, n_motions, qi, Ms,
+                   dMe3, MM, dMx3, KK, Md, Mdd, P, dP3, Pd, Pdd, n, s, depends, True)
+        else:
+            _place(frm[s], s, A, dA3, nd, Ad, Add, rates, n_modes, eta, n_motions, qi, Ms,
+                   dMe3, MM, dMx3, KK, Md, Mdd, P, dPs, Pd, Pdd, 0, s, depends, True)
     return P, dP, Pd, Pdd
