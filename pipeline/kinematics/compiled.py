@@ -416,8 +416,9 @@ def _zero(X, k):
 def _place(f, s, A, dA, nd, Ad, Add, rates, n_modes, eta, n_motions, qi, Ms, dMe, MM, dMx, KK,
            Md, Mdd, P, dP, Pd, Pdd, n, o, depends, inherit):
     """Global pose P[o] = A_f M_s of step s's end, its derivatives dP[o n + i] = dP/dq_i
-    and its rates Pd[o], Pdd[o]; the link poses A, Ad, Add (L, 4, 4) and dA (L nd, 4, 4) (link l's row l nd + i); the
-    steps' local matrices Ms, Md, Mdd (S, 4, 4), dMe (S MM, 4, 4), dMx (S KK, 4, 4).
+    and its rates Pd[o], Pdd[o]; the link poses A, Ad, Add (L, 4, 4) and dA (L nd, 4, 4)
+    (link l's derivative by q_i in row l nd + i); the steps' local matrices Ms, Md, Mdd
+    (S, 4, 4), dMe (S MM, 4, 4), dMx (S KK, 4, 4).
     Without ``inherit`` only the derivatives in the step's own coordinates (those rows of
     dP must be zero)."""
     _zero(P, o)
