@@ -20,7 +20,8 @@ ROOT = Path(__file__).resolve().parents[2]
 WF = ROOT / "workflows" / "excavator.yaml"
 G, LOAD = 9.81, 10_000.0
 
-pytestmark = pytest.mark.gmsh
+# budget of the default run (11.5 min cold on a slow day): .ci/run's slow run has it
+pytestmark = [pytest.mark.gmsh, pytest.mark.slow]
 
 
 @pytest.fixture(scope="module")

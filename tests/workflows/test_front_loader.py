@@ -43,6 +43,7 @@ def _planar_poses(r, mech):
     return poses
 
 
+@pytest.mark.slow  # budget of the default run: .ci/run's slow run has it
 def test_bucket_path_matches_planar_model(run):
     r = run.result("lift_path")
     mech = run.machine.mechanism
@@ -66,6 +67,7 @@ def test_load_only_cylinder_forces_equal_free_body_statics(quick_run):
         assert r.forces["LCYL.d"][k] == pytest.approx(vl, rel=1e-5)
 
 
+@pytest.mark.slow  # budget of the default run: .ci/run's slow run has it
 def test_with_weights_lift_force_is_larger_and_positive(run):
     r = run.result("cylinder_forces")
     f = r.forces["LCYL.d"]
@@ -95,6 +97,7 @@ def test_static_deflection_is_linear_in_the_load():
     assert -5e-3 < step1[2] < 0
 
 
+@pytest.mark.slow  # budget of the default run: .ci/run's slow run has it
 def test_static_cases_and_transient(run):
     for r in run.results["deflection"]:
         assert r.success, (r.case, r.message)
@@ -136,6 +139,7 @@ def _leg_stress_by_beam_theory(r, mech, k: int) -> dict[str, float]:
     return {s: N / (w * t) - M * ((p - c) @ n) / (t * w ** 3 / 12) for s, p in spots.items()}
 
 
+@pytest.mark.slow  # budget of the default run: .ci/run's slow run has it
 def test_lift_arm_stress_along_the_lift_is_the_beam_theory_stress(run):
     """The front leg's edge stress under the rated load (quasi-static, weights included)
     from the Craig-Bampton stress modes equals beam theory with the bucket-pin reaction

@@ -20,6 +20,8 @@ from pipeline.workflow.load import load_workflow
 from pipeline.workflow.series import series
 
 WF = Path(__file__).resolve().parents[2] / "workflows" / "tractor_trailer.yaml"
+# budget of the default run (11.5 min cold on a slow day): .ci/run's slow run has it
+pytestmark = pytest.mark.slow
 COORDS = ("TRACTOR.x", "TRACTOR.y", "TRACTOR.z", "TRACTOR.rz", "TRACTOR.ry", "HITCH.alpha",
           "HITCH.beta")
 
