@@ -443,20 +443,13 @@ def _place(f, s, A, dA, nd, Ad, Add, rates, n_modes, eta, n_motions, qi, Ms, dMe
 
 
 @njit(cache=True, inline='always')
-def _abt_add(X, Y, c, out):
-    """out += c X[:3, :3] @ Y[:3, :3]^T (rotation blocks of two 4x4 matrices)."""
-    for i in range(3):
-        for j in range(3):
-            out[i, j] += c * (X[i, 0] * Y[j, 0] + X[i, 1] * Y[j, 1] + X[i, 2] * Y[j, 2])
-
-
-@njit(cache=True, inline='always')
-def _abt_addi(X, i, Y, j, out):
-    """out += X[i][:3, :3] @ Y[j][:3, :3]^T, indexed (see :func:`_mmi`)."""
+def _abt_add(X, i, Y, j, c, out):
+    """out += c X[i][:3, :3] @ Y[j][:3, :3]^T (rotation blocks of (., 4, 4) arrays,
+    indexed: see :func:`_mmi`)."""
     for r in range(3):
-        for c in range(3):
-            out[r, c] += X[i, r, 0] * Y[j, c, 0] + X[i, r, 1] * Y[j, c, 1] \
-                + X[i, r, 2] * Y[j, c, 2]
+        for k in range(3):
+            out[r, k] += c * (X[i, r, 0] * Y[j, k, 0] + X[i, r, 1] * Y[j, k, 1]
+                              + X[i, r, 2] * Y[j, k, 2])
 
 
 @njit(cache=True, inline='always')
@@ -556,7 +549,7 @@ def _kernel(q, qd, rates, L, root, frm, n_modes, eta, pose, dS, n_motions, kind,
         for c in range(3):
             r[o + c] = P[0, c, 3] - P[1, c, 3]
         E[:] = 0.0
-        _abt_add(P[1], P[0], 1.0, E)  # R_R R_L^T
+        _abt_add(P, 1, P, 0, 1.0, E)  # R_R R_L^T
         _vee_into(E, r, o + 3, 1.0)
         for i in range(n):
             if not loop_depends[kk, i]:
@@ -564,8 +557,8 @@ def _kernel(q, qd, rates, L, root, frm, n_modes, eta, pose, dS, n_motions, kind,
             for c in range(3):
                 J[o + c, i] = dP[i, c, 3] - dP[n + i, c, 3]
             E[:] = 0.0
-            _abt_addi(dP, n + i, P, 0, E)
-            _abt_addi(P, 1, dP, i, E)
+            _abt_add(dP, n + i, P, 0, 1.0, E)
+            _abt_add(P, 1, dP, i, 1.0, E)
             _vee_into(E, col, 0, 1.0)
             for c in range(3):
                 J[o + 3 + c, i] = col[c]
@@ -573,9 +566,9 @@ def _kernel(q, qd, rates, L, root, frm, n_modes, eta, pose, dS, n_motions, kind,
             for c in range(3):
                 g[o + c] = Pdd[1, c, 3] - Pdd[0, c, 3]
             E[:] = 0.0
-            _abt_add(Pdd[1], P[0], 1.0, E)
-            _abt_add(Pd[1], Pd[0], 2.0, E)
-            _abt_add(P[1], Pdd[0], 1.0, E)
+            _abt_add(Pdd, 1, P, 0, 1.0, E)
+            _abt_add(Pd, 1, Pd, 0, 2.0, E)
+            _abt_add(P, 1, Pdd, 0, 1.0, E)
             _vee_into(E, g, o + 3, -1.0)
     return A, dA, Ad, Add, r, J, g
 

@@ -59,8 +59,9 @@ def compile_dae(system, U: np.ndarray, P: np.ndarray, warn: bool = True) -> Comp
     forces, histories = compile_forces(system)
     K, D = system.modal_stiffness_damping
     return CompiledDae(
-        derivatives_needed(mech.compiled, forces, bool(python)), system.compiled_masses, np.ascontiguousarray(K),
-        np.ascontiguousarray(D), np.array(mech.row_weights, dtype=float),
+        derivatives_needed(mech.compiled, forces, bool(python)), system.compiled_masses,
+        np.ascontiguousarray(K), np.ascontiguousarray(D),
+        np.array(mech.row_weights, dtype=float),
         np.asarray(U, dtype=np.int64), np.asarray(P, dtype=np.int64),
         np.array(mech.coordinate_units, dtype=float), np.array(system.gravity4, dtype=float),
         forces, histories)

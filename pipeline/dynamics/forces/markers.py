@@ -160,7 +160,7 @@ def line_geometry(ka, kb, q, A, dA, d):
     length = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
     u0, u1, u2 = x0 / length, x1 / length, x2 / length
     dl = np.empty(n)
-    for i in range(n):  # written out: a BLAS call for (n, 3) @ (3,) cost more than its sums
+    for i in range(n):  # written out: no (n, 3) temporary
         dl[i] = (db[i, 0] - da[i, 0]) * u0 + (db[i, 1] - da[i, 1]) * u1 \
             + (db[i, 2] - da[i, 2]) * u2
     return length, dl
