@@ -77,6 +77,10 @@ def _elements():
                           counterbalance={"side": "a", "setting": 60e5, "pilot_ratio": 4.0,
                                           "time_constant": 0.03,
                                           "closing_time_constant": 0.01}, **CYL),
+        HydraulicCylinder("sprung", ("ground", "O4"), ("rocker", "B"), command=RAMP,
+                          counterbalance={"side": "b", "setting": 50e5, "pilot_ratio": 3.0,
+                                          "spool_frequency": 20.0, "spool_damping": 0.4},
+                          spool_frequency=40.0, **CYL),
     )
 
 
@@ -158,6 +162,7 @@ def test_a_cylinders_state_layout_is_the_one_its_compiled_rates_use():
     assert ("p_a", "p_b", "p_s", "x_v", "v_v") in seen
     assert ("p_a", "p_b", "p_s", "p_c", "x_v", "pid") in seen
     assert ("p_a", "p_b", "p_c", "a_c") in seen
+    assert ("p_a", "p_b", "p_c", "a_c", "v_c", "x_v", "v_v") in seen
 
 
 def test_an_analysis_without_states_names_the_element_that_has_them():

@@ -197,8 +197,8 @@ def test_a_pid_may_measure_a_chamber_pressure(tmp_path):
 
 
 def test_air_and_a_counterbalance_valve_are_written_in_the_workflow(tmp_path):
-    """``air_content`` (dissolving), and ``counterbalance: {...}`` (with its spool's lag)
-    build the element the Python API builds; a bad valve field is named at its line."""
+    """``air_content`` (dissolving), and ``counterbalance: {...}`` (with its spool's lag,
+    or its spool on its spring) build the element the Python API builds; a bad valve field is named at its line."""
     from pipeline.dynamics.forces.hydraulics import CounterbalanceValve
     from pipeline.workflow.build import build_machine
     from pipeline.workflow.load import load_workflow
@@ -219,6 +219,11 @@ def test_air_and_a_counterbalance_valve_are_written_in_the_workflow(tmp_path):
     lagged = text.replace("pilot_ratio: 4.0", "pilot_ratio: 4.0, time_constant: 0.03")
     m = build_machine(load_workflow(_write(tmp_path, lagged)), tmp_path / "links")
     assert m.system.forces[0].STATES == ("p_a", "p_b", "p_c", "a_c")
+    sprung = text.replace("pilot_ratio: 4.0",
+                          "pilot_ratio: 4.0, spool_frequency: 12.0, spool_damping: 0.3")
+    m = build_machine(load_workflow(_write(tmp_path, sprung)), tmp_path / "links")
+    assert m.system.forces[0].STATES == ("p_a", "p_b", "p_c", "a_c", "v_c")
+    assert m.system.forces[0].counterbalance.spool_damping == 0.3
     bad = text.replace("pilot_ratio: 4.0", "pilot_ratio: 4.0, time_constant: -0.03")
     with pytest.raises(ConfigError, match=r"lift\.yaml:\d+: forces\[0\].*counterbalance: "
                                           r"time_constant: expected seconds > 0"):

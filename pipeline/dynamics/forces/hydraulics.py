@@ -69,7 +69,14 @@ lowered at the pace the pilot meters; p_c' = beta / V_c (Q_port - Q_cb). Its spo
 at once (a as above), or, with a ``time_constant`` tau_o (and a ``closing_time_constant``
 tau_c), lags behind: the opening is then one more state, a' = (a_s - a) / tau, a_s the
 clipped opening above and tau = tau_o while it opens (a_s > a), tau_c while it closes (a
-damping orifice on the pilot slows a real valve's opening more than its closing).
+damping orifice on the pilot slows a real valve's opening more than its closing). Or,
+with a ``spool_frequency`` f_c (and ``spool_damping`` zeta_c), the spool is a mass on its
+spring: a'' = w_c^2 (a_s - a) - 2 zeta_c w_c a', w_c = 2 pi f_c, its opening and rate two
+states. The seat and the stop act through a_s (clipped to [0, 1]: the spring and pilot
+forces beyond them are carried by the housing) and through the orifice, which passes
+clip(a, 0, 1): a spool that overshoots them transiently is not stopped there (no impact).
+Such a valve can hunt: lowering an overrunning load, its opening and the load's motion
+may feed each other into a sustained oscillation where the spool is lightly damped.
 
 Force pushing the markers apart: F = p_a A_a - p_b A_b - c s' - F_c tanh(s' / v_s) (seal
 friction, viscous and Coulomb; the Coulomb part smoothed over ``friction_velocity`` v_s),
@@ -98,8 +105,7 @@ area over the valve's flow per unit command), so the loop need not lag to move.
 Not modelled (yet): the cushions' throttling near the ends (without end stops a stroke
 outside [0, stroke] is reported by the run's checks), cavitation (pressures below -1 bar
 gauge are reported), the time the air takes to dissolve and to come out again (taken as
-instant), a counterbalance valve's second-order spool dynamics (its
-mass and spring: the lag above is first order).
+instant), a counterbalance spool's impacts on its seat and stop.
 
 The physics (flows, pressure rates, force) is written once, as the compiled functions
 below; the element's methods evaluate them (:class:`~pipeline.dynamics.forces.base.
@@ -133,8 +139,8 @@ PRESSURES = ("p_a", "p_b")
 # par columns of the packed element
 _AA, _AB, _L0, _STROKE, _VA0, _VB0, _BETA, _PS, _PT, _KV, _DPL, _LEAK, _VISC, _COUL, _VS, \
     _QP, _PR, _KR, _VS0, _SPOOL, _TAU, _WV, _ZV, _OVL, _KE, _CE, _AIR, _PDIS, \
-    _CBS, _KCB, _PSET, _PSI, _DPO, _VC0, _TCO, _TCC, \
-    _PID, _KP, _KI, _KD, _UMIN, _UMAX, _TT, _MEAS, _KFF, _MMK, _MCOMP = range(47)
+    _CBS, _KCB, _PSET, _PSI, _DPO, _VC0, _TCO, _TCC, _CBW, _CBZ, \
+    _PID, _KP, _KI, _KD, _UMIN, _UMAX, _TT, _MEAS, _KFF, _MMK, _MCOMP = range(49)
 #: Pa: atmospheric pressure, the reference of the gauge pressures and of the air content
 ATMOSPHERE = 101325.0
 #: _MEAS of a controller on a marker's position (its point _MMK, its component _MCOMP)
@@ -272,7 +278,9 @@ class CounterbalanceValve:
     is then a state, a' = (a_s - a) / tau, a_s the opening its pressures call for (module
     docstring), tau ``time_constant`` (s) while it opens (a_s > a) and
     ``closing_time_constant`` (s; default the same) while it closes: a real valve's
-    damping orifice slows its opening more than its closing."""
+    damping orifice slows its opening more than its closing. Or as a mass on its spring,
+    of natural frequency ``spool_frequency`` (Hz) and damping ratio ``spool_damping``:
+    a'' = w^2 (a_s - a) - 2 zeta w a', the opening and its rate then states."""
 
     side: str
     setting: float
@@ -284,6 +292,8 @@ class CounterbalanceValve:
     initial_pressure: float = 0.0
     time_constant: float | None = None
     closing_time_constant: float | None = None
+    spool_frequency: float | None = None
+    spool_damping: float = 0.7
 
     def __post_init__(self):
         if self.side not in ("a", "b"):
@@ -307,25 +317,45 @@ class CounterbalanceValve:
                                   or not x > 0 or not math.isfinite(x)):
                 raise ConfigError(f"counterbalance: {key}: expected seconds > 0 (or none: "
                                   f"the spool follows its pilot at once), got {x!r}")
+        for key in ("spool_frequency", "spool_damping"):
+            x = getattr(self, key)
+            if x is not None and (isinstance(x, bool) or not isinstance(x, int | float)
+                                  or not x > 0 or not math.isfinite(x)):
+                raise ConfigError(f"counterbalance: {key}: expected a number > 0 (or none "
+                                  f"for the frequency: the spool follows its pilot at "
+                                  f"once), got {x!r}")
         if self.closing_time_constant is not None and self.time_constant is None:
             raise ConfigError("counterbalance: closing_time_constant: the spool has no "
                               "dynamics without time_constant (its opening lag); give "
                               "time_constant too")
+        if self.time_constant is not None and self.spool_frequency is not None:
+            raise ConfigError("counterbalance: spool_frequency: give the spool a first-order "
+                              "lag (time_constant) or a second-order one (spool_frequency, "
+                              "spool_damping), not both")
+
+    @property
+    def spool_order(self) -> int:
+        """0: the spool follows its pilot at once; 1: a first-order lag; 2: a mass on its
+        spring (the opening, and its rate, are states)."""
+        return 2 if self.spool_frequency is not None else \
+            1 if self.time_constant is not None else 0
 
     @property
     def lagged(self) -> bool:
-        """Is the spool's opening a state (a first-order lag behind its pilot)?"""
-        return self.time_constant is not None
+        """Is the spool's opening a state (it lags behind its pilot)?"""
+        return self.spool_order > 0
 
     def parameters(self) -> list[float]:
         """(side 1 or 2, K = Q_nom / sqrt(dp_nom), setting, pilot ratio, opening range,
-        line volume, opening and closing time constants, 0 without a lag): the packed
+        line volume, opening and closing time constants (0 without a lag), the spool's
+        natural angular frequency (rad/s; 0 without) and damping ratio): the packed
         element's counterbalance columns."""
         tau = self.time_constant or 0.0
         return [1.0 if self.side == "a" else 2.0,
                 self.nominal_flow / math.sqrt(self.nominal_drop), self.setting,
                 self.pilot_ratio, self.opening_range, self.line_volume, tau,
-                self.closing_time_constant or tau]
+                self.closing_time_constant or tau, 2 * math.pi * (self.spool_frequency or 0.0),
+                self.spool_damping]
 
 
 @dataclass(frozen=True)
@@ -393,7 +423,8 @@ class HydraulicCylinder(CompiledElement, LineElement):
         """(name, unit, scale) of each of the element's own states, in the order its
         compiled rates read and write them (``_state_count`` and ``command_rates``):
         the chamber pressures p_a, p_b; the supply line's p_s when a pump of given flow
-        feeds it; a counterbalance valve's line p_c and, lagged, its opening a_c; the
+        feeds it; a counterbalance valve's line p_c and, lagged, its opening a_c (and,
+        second order, its rate v_c); the
         spool's position x_v (and rate v_v) when it has dynamics; a controller's integral.
         Scales: a bar for a pressure, the valve's full opening, the spool's whole travel
         (and, second order, that per 1 / w_v). STATES, STATE_UNITS and state_scales are
@@ -405,7 +436,8 @@ class HydraulicCylinder(CompiledElement, LineElement):
         if self.counterbalance is not None:
             rows.append(("p_c", *bar))
         if self.counterbalance_lagged:
-            rows.append(("a_c", "1", 1.0))
+            rows += [("a_c", "1", 1.0), ("v_c", "1/s", 2 * math.pi * (
+                self.counterbalance.spool_frequency or 0.0))][:self.counterbalance.spool_order]
         rows += [("x_v", "1", 1.0),
                  ("v_v", "1/s", 2 * math.pi * (self.spool_frequency or 0.0))][:self.spool_order]
         if self.controlled:
@@ -540,7 +572,7 @@ class HydraulicCylinder(CompiledElement, LineElement):
                 0.1 * ab * self.stroke if self.dead_volume_b is None else self.dead_volume_b)
 
     def parameters(self) -> np.ndarray:
-        """(47,) the packed parameters (the ``par`` row of the compiled form)."""
+        """(49,) the packed parameters (the ``par`` row of the compiled form)."""
         aa, ab = self.areas
         va, vb = self.dead_volumes
         pump = self.pump_flow is not None
@@ -556,7 +588,7 @@ class HydraulicCylinder(CompiledElement, LineElement):
                          self.spool_overlap, self.end_stiffness or 0.0, self.end_damping,
                          self.air_content, self.air_dissolved_pressure or 0.0,
                          *(self.counterbalance.parameters() if self.counterbalance is not None
-                           else [0.0] * 8),
+                           else [0.0] * 10),
                          *self._pid_parameters()], dtype=float)
 
     def _pid_parameters(self) -> tuple:
@@ -627,7 +659,8 @@ class HydraulicCylinder(CompiledElement, LineElement):
         """The states (:meth:`state_layout`) at the start: pressures in
         Pa, NaN for a ``hold`` pressure (found at the start so that the machine is at
         rest: pipeline.dynamics.held_states); a lagged counterbalance valve open as the
-        start pressures call for (closed on a held chamber); the spool at rest where the
+        start pressures call for (closed on a held chamber; a second-order spool at rest
+        there); the spool at rest where the
         command at t = 0 puts it."""
         from pipeline.dynamics.forces.loads import history_value
 
@@ -642,6 +675,7 @@ class HydraulicCylinder(CompiledElement, LineElement):
             pc, pilot = (p[0], p[1]) if cb.side == "a" else (p[1], p[0])
             p.append(0.0 if np.isnan(pc) or np.isnan(pilot) else
                      counterbalance_opening(self.parameters(), float(pc), float(pilot)))
+            p += [0.0][:cb.spool_order - 1]
         if self.spool_order:  # a controller's spool starts centred
             u = 0.0 if self.controlled else \
                 min(max(history_value(self.command, 0.0, self.name), -1.0), 1.0)
@@ -842,14 +876,15 @@ def valve_rates(par, u, length, sd, z, o, zd):
     supply line's, the spool's) at the command u, length (m) and stroke rate sd (m/s)."""
     pump = 1 if par[_QP] > 0.0 else 0
     cb = 1 if par[_CBS] > 0.0 else 0
-    lag = 1 if par[_TCO] > 0.0 else 0  # the counterbalance valve's opening a state
+    lag = counterbalance_order(par)  # the counterbalance valve's opening (and rate)
     c = o + 2 + pump  # the counterbalance line's state, then its opening's
     k = c + cb + lag  # the spool's states
     order = int(par[_SPOOL])
     x = u if order == 0 else z[k]
-    out = np.empty(5)
+    out = np.empty(6)
     pressure_rates(par, length, sd, z[o], z[o + 1], z[o + 2] if pump else 0.0,
-                   z[c] if cb else 0.0, z[c + 1] if lag else 0.0, x, out)
+                   z[c] if cb else 0.0, z[c + 1] if lag else 0.0,
+                   z[c + 2] if lag == 2 else 0.0, x, out)
     zd[o], zd[o + 1] = out[0], out[1]
     if pump:
         zd[o + 2] = out[2]
@@ -857,6 +892,8 @@ def valve_rates(par, u, length, sd, z, o, zd):
         zd[c] = out[3]
     if lag:
         zd[c + 1] = out[4]
+    if lag == 2:
+        zd[c + 2] = out[5]
     u = min(max(u, -1.0), 1.0)
     if order == 1:
         zd[k] = (u - z[k]) / par[_TAU]
@@ -906,7 +943,14 @@ def command_rates(par, command, rate, length, sd, ym, ymd, q, v, z, o, zd):
 def _state_count(par) -> int:
     """The element's number of states (STATES)."""
     return 2 + (1 if par[_QP] > 0.0 else 0) + (1 if par[_CBS] > 0.0 else 0) \
-        + (1 if par[_TCO] > 0.0 else 0) + int(par[_SPOOL]) + (1 if par[_PID] > 0 else 0)
+        + counterbalance_order(par) + int(par[_SPOOL]) + (1 if par[_PID] > 0 else 0)
+
+
+@njit(cache=True)
+def counterbalance_order(par) -> int:
+    """The counterbalance spool's states: 0 (it follows its pilot at once), 1 (a lag) or 2
+    (a mass on its spring)."""
+    return 1 if par[_TCO] > 0.0 else 2 if par[_CBW] > 0.0 else 0
 
 
 @njit(cache=True)
@@ -933,12 +977,13 @@ def counterbalance_lag(par, a, target):
 
 
 @njit(cache=True)
-def pressure_rates(par, length, sd, pa, pb, psup, pc, ac, x, out):
-    """out (5,) = (p_a', p_b', p_s', p_c', a_c'), Pa/s and 1/s, at the length (m), stroke
-    rate sd (m/s), pressures pa, pb, with a pump of given flow the supply line's psup,
-    with a counterbalance valve its line's pc (Pa) and, lagged, its opening ac (unused
-    where it opens at once), and spool position x (module docstring); p_s' (p_c', a_c')
-    is 0 without that pump (valve, lag)."""
+def pressure_rates(par, length, sd, pa, pb, psup, pc, ac, vc, x, out):
+    """out (6,) = (p_a', p_b', p_s', p_c', a_c', v_c'), Pa/s, 1/s and 1/s^2, at the length
+    (m), stroke rate sd (m/s), pressures pa, pb, with a pump of given flow the supply
+    line's psup, with a counterbalance valve its line's pc (Pa) and, lagged, its opening ac
+    (unused where it opens at once) and, second order, its rate vc (1/s), and spool
+    position x (module docstring); p_s' (p_c', a_c', v_c') is 0 without that pump (valve,
+    lag, second order)."""
     s = length - par[_L0]
     up, un = opening(par, x), opening(par, -x)
     pump = par[_QP] > 0.0
@@ -951,21 +996,27 @@ def pressure_rates(par, length, sd, pa, pb, psup, pc, ac, x, out):
     qpa, qpb = up * _orifice(ps - wa, lam), un * _orifice(ps - wb, lam)
     qa = par[_KV] * (qpa - un * _orifice(wa - pt, lam))
     qb = par[_KV] * (qpb - up * _orifice(wb - pt, lam))
-    out[3] = out[4] = 0.0
-    lagged = par[_TCO] > 0.0
+    out[3] = out[4] = out[5] = 0.0
+    lag = counterbalance_order(par)
+    # a second-order spool may overshoot its seat or stop: the orifice opens within them
+    a = min(max(ac, 0.0), 1.0)
     target = 0.0
     if side == 1:  # port A feeds the line; the counterbalance valve feeds chamber a
         target = counterbalance_opening(par, pa, pb)
-        q = counterbalance_flow(par, pa, pc, ac if lagged else target)
+        q = counterbalance_flow(par, pa, pc, a if lag else target)
         out[3] = effective_bulk_modulus(par, pc) / par[_VC0] * (qa - q)
         qa = q
     elif side == 2:
         target = counterbalance_opening(par, pb, pa)
-        q = counterbalance_flow(par, pb, pc, ac if lagged else target)
+        q = counterbalance_flow(par, pb, pc, a if lag else target)
         out[3] = effective_bulk_modulus(par, pc) / par[_VC0] * (qb - q)
         qb = q
-    if side > 0 and lagged:
+    if side > 0 and lag == 1:
         out[4] = counterbalance_lag(par, ac, target)
+    elif side > 0 and lag == 2:
+        w = par[_CBW]
+        out[4] = vc
+        out[5] = w * w * (target - ac) - 2.0 * par[_CBZ] * w * vc
     ql = par[_LEAK] * (pa - pb)
     # a stroke beyond the ends (into the end stops, or without them: the run's checks
     # report it) must not empty a chamber: its volume is kept above a tenth of its dead
