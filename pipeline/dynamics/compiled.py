@@ -180,51 +180,61 @@ def _affine_inverse(A, out):
     out[3, 3] = 1.0
 
 
-@njit(cache=True, inline='always')
-def _body_terms(q, idx, m, C, Cp, Cpp, G, has_G, J, N):
-    """J(eta) (4, 4) and N_a(eta) (m, 4, 4) of one body into J, N (the module docstring):
-    its modal coordinates q[idx[:m]], invariants C, C'_a, C''_ab, second-order moments G."""
+@njit(cache=True)
+def _body_terms(q, idx, n_modes, C, Cp, Cpp, G, has_G, J, N):
+    """J(eta) (B, 4, 4) and N_a(eta) (B, MM, 4, 4) of every body into J, N (the module
+    docstring): body b's modal coordinates q[idx[b, :n_modes[b]]], invariants C[b],
+    C'_a, C''_ab, second-order moments G[b]. All bodies in one call, indexed rather than
+    sliced: a call takes a reference count on each array it is given (an atomic
+    operation), which per body cost as much as a rigid body's sums."""
     # written out element by element: as array expressions each 4x4 term allocated a
     # temporary (an 8-mode boom's inertia call: ~100 of them)
-    J[:] = C
-    for a in range(m):
-        ea = q[idx[a]]
+    for b in range(n_modes.shape[0]):
+        m = n_modes[b]
         for j in range(4):
             for k in range(4):
-                N[a, j, k] = Cp[a, j, k]
-                J[j, k] += ea * (Cp[a, j, k] + Cp[a, k, j])
-    for a in range(m):
-        for c in range(m):
-            ec = q[idx[c]]
+                J[b, j, k] = C[b, j, k]
+        for a in range(m):
+            ea = q[idx[b, a]]
             for j in range(4):
                 for k in range(4):
-                    N[a, j, k] += ec * Cpp[c, a, j, k]
-    for a in range(m):
-        ea = q[idx[a]]
-        for j in range(4):
-            for k in range(4):
-                J[j, k] += ea * (N[a, j, k] - Cp[a, j, k])  # sum_ab eta_a eta_b C''_ba
-    # the second-order mass moments: J += S + S^T (S = sum eta_a eta_b G_ab / 2 in the
-    # first three columns), N_a[:, :3] += sum_b G_ab eta_b
-    for a in range(m if has_G else 0):
-        ea = q[idx[a]]
-        for c in range(m):
-            ec = q[idx[c]]
+                    N[b, a, j, k] = Cp[b, a, j, k]
+                    J[b, j, k] += ea * (Cp[b, a, j, k] + Cp[b, a, k, j])
+        for a in range(m):
+            for c in range(m):
+                ec = q[idx[b, c]]
+                for j in range(4):
+                    for k in range(4):
+                        N[b, a, j, k] += ec * Cpp[b, c, a, j, k]
+        for a in range(m):
+            ea = q[idx[b, a]]
             for j in range(4):
-                for k in range(3):
-                    v = G[a, c, j, k] * ec
-                    N[a, j, k] += v
-                    J[j, k] += 0.5 * ea * v
-                    J[k, j] += 0.5 * ea * v
+                for k in range(4):
+                    # sum_ab eta_a eta_b C''_ba
+                    J[b, j, k] += ea * (N[b, a, j, k] - Cp[b, a, j, k])
+        # the second-order mass moments: J += S + S^T (S = sum eta_a eta_b G_ab / 2 in
+        # the first three columns), N_a[:, :3] += sum_b G_ab eta_b
+        for a in range(m if has_G[b] else 0):
+            ea = q[idx[b, a]]
+            for c in range(m):
+                ec = q[idx[b, c]]
+                for j in range(4):
+                    for k in range(3):
+                        v = G[b, a, c, j, k] * ec
+                        N[b, a, j, k] += v
+                        J[b, j, k] += 0.5 * ea * v
+                        J[b, k, j] += 0.5 * ea * v
 
 
 @njit(cache=True)
 def _one_body(eta, C, Cp, Cpp, G, has_G):
     m = eta.shape[0]
-    J = np.zeros((4, 4))
-    N = np.zeros((m, 4, 4))
-    _body_terms(eta, np.arange(m), m, C, Cp, Cpp, G, has_G, J, N)
-    return J, N
+    J = np.zeros((1, 4, 4))
+    N = np.zeros((1, m, 4, 4))
+    _body_terms(eta, np.arange(m).reshape(1, m), np.array([m]), C.reshape(1, 4, 4),
+                Cp.reshape(1, m, 4, 4), Cpp.reshape(1, m, m, 4, 4),
+                G.reshape(1, m, m, 4, 3), np.array([has_G]), J, N)
+    return J[0], N[0]
 
 
 def link_terms(body, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -255,15 +265,15 @@ def gravity_potential(q, A, g, mass):
     :meth:`CompiledMasses.arrays`."""
     link, n_modes, idx, C, Cp, Cpp, G, has_G = mass[:8]
     V = 0.0
-    J = np.zeros((4, 4))
-    N = np.zeros((Cp.shape[1], 4, 4))
+    J = np.zeros((link.shape[0], 4, 4))
+    N = np.zeros((link.shape[0], Cp.shape[1], 4, 4))
+    _body_terms(q, idx, n_modes, C, Cp, Cpp, G, has_G, J, N)
     for b in range(link.shape[0]):
-        _body_terms(q, idx[b], n_modes[b], C[b], Cp[b], Cpp[b], G[b], has_G[b], J, N)
-        Al = A[link[b]]
+        li = link[b]
         for r in range(4):
             s = 0.0
             for k in range(4):
-                s += Al[r, k] * J[k, 3]
+                s += A[li, r, k] * J[b, k, 3]
             V -= g[r] * s
     return V
 
@@ -278,8 +288,8 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G, 
     M = np.zeros((n, n))
     h = np.zeros(n)
     Qg = np.zeros(n)
-    J = np.zeros((4, 4))
-    N = np.zeros((MM, 4, 4))
+    JB = np.zeros((link.shape[0], 4, 4))
+    NB = np.zeros((link.shape[0], MM, 4, 4))
     Gm = np.zeros((MM, 4, 4))
     Z = np.zeros((4, 4))
     T1 = np.zeros((4, 4))
@@ -298,10 +308,11 @@ def _kernel(q, qd, rates, A, dA, Ad, Add, g, link, n_modes, idx, C, Cp, Cpp, G, 
             _affine_inverse(A[c], T1)
             for k in range(n_local[c]):
                 _mm(dA[c, local[c, k]], T1, W[c, k])
+    _body_terms(q, idx, n_modes, C, Cp, Cpp, G, has_G, JB, NB)
     for b in range(link.shape[0]):
         li, m = link[b], n_modes[b]
         massive[li] = b
-        _body_terms(q, idx[b], m, C[b], Cp[b], Cpp[b], G[b], has_G[b], J, N)
+        J, N = JB[b], NB[b]
         Al = A[li]
         # this link's share of its composites: A J A^T and A J[:, 3]
         _mm(Al, J, T1)

@@ -413,14 +413,14 @@ def _zero(X, k):
 
 
 @njit(cache=True)
-def _place(f, s, A, dA, nd, Ad, Add, rates, n_modes, eta, n_motions, qi, Ms, dMe, MM, dMx, KK,
-           Md, Mdd, P, dP, Pd, Pdd, n, o, depends, inherit):
-    """Global pose P[o] = A_f M_s of step s's end, its derivatives dP[o n + i] = dP/dq_i
-    and its rates Pd[o], Pdd[o]; the link poses A, Ad, Add (L, 4, 4) and dA (L nd, 4, 4)
-    (link l's derivative by q_i in row l nd + i); the steps' local matrices Ms, Md, Mdd
-    (S, 4, 4), dMe (S MM, 4, 4), dMx (S KK, 4, 4).
+def _place(f, s, A, dA, nd, n_modes, eta, n_motions, qi, Ms, dMe, MM, dMx, KK, P, dP, n, o,
+           depends, inherit):
+    """Global pose P[o] = A_f M_s of step s's end and its derivatives dP[o n + i] = dP/dq_i;
+    the link poses A (L, 4, 4) and dA (L nd, 4, 4) (link l's derivative by q_i in row
+    l nd + i); the steps' local matrices Ms (S, 4, 4), dMe (S MM, 4, 4), dMx (S KK, 4, 4).
     Without ``inherit`` only the derivatives in the step's own coordinates (those rows of
-    dP must be zero)."""
+    dP must be zero). The rates are :func:`_place_rates`'s: an array used only in a
+    branch keeps the reference count the call took on it (an atomic operation each)."""
     _zero(P, o)
     _mmi(A, f, Ms, s, 1.0, P, o)
     base = o * n
@@ -432,14 +432,19 @@ def _place(f, s, A, dA, nd, Ad, Add, rates, n_modes, eta, n_motions, qi, Ms, dMe
         _mmi(A, f, dMe, s * MM + a, 1.0, dP, base + eta[s, a])
     for i in range(n_motions[s]):
         _mmi(A, f, dMx, s * KK + i, 1.0, dP, base + qi[s, i])
-    if rates:
-        _zero(Pd, o)
-        _mmi(Ad, f, Ms, s, 1.0, Pd, o)
-        _mmi(A, f, Md, s, 1.0, Pd, o)
-        _zero(Pdd, o)
-        _mmi(Add, f, Ms, s, 1.0, Pdd, o)
-        _mmi(Ad, f, Md, s, 2.0, Pdd, o)
-        _mmi(A, f, Mdd, s, 1.0, Pdd, o)
+
+
+@njit(cache=True)
+def _place_rates(f, s, A, Ad, Add, Ms, Md, Mdd, Pd, Pdd, o):
+    """The rates Pd[o], Pdd[o] of step s's end placed on link f (:func:`_place`), from the
+    link's A, Ad, Add (L, 4, 4) and the step's Ms, Md, Mdd (S, 4, 4)."""
+    _zero(Pd, o)
+    _mmi(Ad, f, Ms, s, 1.0, Pd, o)
+    _mmi(A, f, Md, s, 1.0, Pd, o)
+    _zero(Pdd, o)
+    _mmi(Add, f, Ms, s, 1.0, Pdd, o)
+    _mmi(Ad, f, Md, s, 2.0, Pdd, o)
+    _mmi(A, f, Mdd, s, 1.0, Pdd, o)
 
 
 @njit(cache=True, inline='always')
@@ -460,37 +465,41 @@ def _vee_into(E, out, o, sign):
     out[o + 2] = sign * 0.5 * (E[1, 0] - E[0, 1])
 
 
-@njit(cache=True, inline='always')
-def _fast_step(s, q, qd, rates, fast, fastC, fastq, M, dM, Md, Mdd):
-    """A rigid step with at most one motion in closed form (Step.fast): rotation
-    M = C0 + sin x C1 + (1 - cos x) C2, translation M = C0 + x C1, fixed M = C0."""
-    k = fast[s]
-    if k == 2:  # fixed: no coordinate to read (a mechanism may have none: q is empty)
-        for i in range(4):
-            for j in range(4):
-                M[i, j] = fastC[s, 0, i, j]
-        return
-    x = q[fastq[s]]
-    w = qd[fastq[s]]
-    if k == 0:
-        sn, cs = np.sin(x), np.cos(x)
-        for i in range(4):
-            for j in range(4):
-                c1, c2 = fastC[s, 1, i, j], fastC[s, 2, i, j]
-                M[i, j] = fastC[s, 0, i, j] + sn * c1 + (1.0 - cs) * c2
-                dM[i, j] = cs * c1 + sn * c2
-                if rates:
-                    Md[i, j] = w * dM[i, j]
-                    Mdd[i, j] = w * w * (cs * c2 - sn * c1)
-    elif k == 1:
-        for i in range(4):
-            for j in range(4):
-                c1 = fastC[s, 1, i, j]
-                M[i, j] = fastC[s, 0, i, j] + x * c1
-                dM[i, j] = c1
-                if rates:
-                    Md[i, j] = w * c1
-                    Mdd[i, j] = 0.0
+@njit(cache=True)
+def _fast_steps(q, qd, rates, fast, fastC, fastq, M, dM, Md, Mdd):
+    """The rigid steps with at most one motion (Step.fast; the others have fast[s] < 0), in
+    closed form: rotation M = C0 + sin x C1 + (1 - cos x) C2, translation M = C0 + x C1,
+    fixed M = C0, into M[s], dM[s, 0], Md[s], Mdd[s]. All of them in one call, indexed
+    rather than sliced: a call (inlined or not) takes a reference count on each array it
+    is given, which per step cost more than the step's arithmetic (see :func:`_mmi`)."""
+    for s in range(fast.shape[0]):
+        k = fast[s]
+        if k == 2:  # fixed: no coordinate to read (a mechanism may have none: q is empty)
+            for i in range(4):
+                for j in range(4):
+                    M[s, i, j] = fastC[s, 0, i, j]
+        elif k == 0:
+            x, w = q[fastq[s]], qd[fastq[s]]
+            sn, cs = np.sin(x), np.cos(x)
+            for i in range(4):
+                for j in range(4):
+                    c1, c2 = fastC[s, 1, i, j], fastC[s, 2, i, j]
+                    M[s, i, j] = fastC[s, 0, i, j] + sn * c1 + (1.0 - cs) * c2
+                    d = cs * c1 + sn * c2
+                    dM[s, 0, i, j] = d
+                    if rates:
+                        Md[s, i, j] = w * d
+                        Mdd[s, i, j] = w * w * (cs * c2 - sn * c1)
+        elif k == 1:
+            x, w = q[fastq[s]], qd[fastq[s]]
+            for i in range(4):
+                for j in range(4):
+                    c1 = fastC[s, 1, i, j]
+                    M[s, i, j] = fastC[s, 0, i, j] + x * c1
+                    dM[s, 0, i, j] = c1
+                    if rates:
+                        Md[s, i, j] = w * c1
+                        Mdd[s, i, j] = 0.0
 
 
 @njit(cache=True)
@@ -511,9 +520,9 @@ def _kernel(q, qd, rates, L, root, frm, n_modes, eta, pose, dS, n_motions, kind,
     Tw = np.zeros((KK + 1, 4, 4))
     w4 = np.zeros((11, 4, 4))
     hv = np.zeros((MM, 3))
+    _fast_steps(q, qd, rates, fast, fastC, fastq, Ms, dMx, Md, Mdd)
     for s in range(S):
         if fast[s] >= 0:
-            _fast_step(s, q, qd, rates, fast, fastC, fastq, Ms[s], dMx[s, 0], Md[s], Mdd[s])
             continue
         _step(s, q, qd, rates, n_modes, eta, pose, dS, n_motions, kind, gen, gen2, qi, tail,
               second, hess, Ms[s], dMe[s], dMx[s], Md[s], Mdd[s], F, Pw, Tw, w4[0], w4[1],
@@ -528,8 +537,10 @@ def _kernel(q, qd, rates, L, root, frm, n_modes, eta, pose, dS, n_motions, kind,
         dMx.reshape(S * KK, 4, 4)
     for li in order:
         s = slot[li]
-        _place(frm[s], s, A, dA3, n, Ad, Add, rates, n_modes, eta, n_motions, qi, Ms, dMe3, MM,
-               dMx3, KK, Md, Mdd, A, dA3, Ad, Add, n, li, depends, derive[li])
+        _place(frm[s], s, A, dA3, n, n_modes, eta, n_motions, qi, Ms, dMe3, MM, dMx3, KK, A,
+               dA3, n, li, depends, derive[li])
+        if rates:
+            _place_rates(frm[s], s, A, Ad, Add, Ms, Md, Mdd, Ad, Add, li)
     K = loops.shape[0]
     r = np.zeros(6 * K)
     J = np.zeros((6 * K, n))
@@ -543,8 +554,10 @@ def _kernel(q, qd, rates, L, root, frm, n_modes, eta, pose, dS, n_motions, kind,
     for kk in range(K):
         for side in range(2):
             s = loops[kk, side]
-            _place(frm[s], s, A, dA3, n, Ad, Add, rates, n_modes, eta, n_motions, qi, Ms, dMe3,
-                   MM, dMx3, KK, Md, Mdd, P, dP, Pd, Pdd, n, side, depends, True)
+            _place(frm[s], s, A, dA3, n, n_modes, eta, n_motions, qi, Ms, dMe3, MM, dMx3, KK, P,
+                   dP, n, side, depends, True)
+            if rates:
+                _place_rates(frm[s], s, A, Ad, Add, Ms, Md, Mdd, Pd, Pdd, side)
         o = 6 * kk
         for c in range(3):
             r[o + c] = P[0, c, 3] - P[1, c, 3]
@@ -577,7 +590,7 @@ def _kernel(q, qd, rates, L, root, frm, n_modes, eta, pose, dS, n_motions, kind,
 def _values_kernel(q, qd, rates, need_d, A, dA, Ad, Add, frm, n_modes, eta, pose, dS,
                    n_motions, kind, gen, gen2, qi, tail, fast, fastC, fastq, second, hess):
     """P, dP, Pd, Pdd of each step (see :func:`step_values`); the same local evaluation
-    (:func:`_step`, :func:`_fast_step`) and placement (:func:`_place`) as the tree's."""
+    (:func:`_step`, :func:`_fast_steps`) and placement (:func:`_place`) as the tree's."""
     n = q.shape[0]
     S = frm.shape[0]
     MM = dS.shape[1]
@@ -602,17 +615,18 @@ def _values_kernel(q, qd, rates, need_d, A, dA, Ad, Add, frm, n_modes, eta, pose
     dA3, dMe3, dMx3 = dA.reshape(A.shape[0] * nd, 4, 4), dMe.reshape(S * MM, 4, 4), \
         dMx.reshape(S * KK, 4, 4)
     dP3 = dP.reshape(dP.shape[0] * n, 4, 4)
+    _fast_steps(q, qd, rates, fast, fastC, fastq, Ms, dMx, Md, Mdd)
     for s in range(S):
-        if fast[s] >= 0:
-            _fast_step(s, q, qd, rates, fast, fastC, fastq, Ms[s], dMx[s, 0], Md[s], Mdd[s])
-        else:
+        if fast[s] < 0:
             _step(s, q, qd, rates, n_modes, eta, pose, dS, n_motions, kind, gen, gen2, qi,
                   tail, second, hess, Ms[s], dMe[s], dMx[s], Md[s], Mdd[s], F, Pw, Tw, w4[0],
                   w4[1], w4[2], w4[3], w4[4], w4[5], w4[6], w4[7], w4[8], w4[9], w4[10], hv)
         if need_d:
-            _place(frm[s], s, A, dA3, nd, Ad, Add, rates, n_modes, eta, n_motions, qi, Ms,
-                   dMe3, MM, dMx3, KK, Md, Mdd, P, dP3, Pd, Pdd, n, s, depends, True)
+            _place(frm[s], s, A, dA3, nd, n_modes, eta, n_motions, qi, Ms, dMe3, MM, dMx3, KK,
+                   P, dP3, n, s, depends, True)
         else:
-            _place(frm[s], s, A, dA3, nd, Ad, Add, rates, n_modes, eta, n_motions, qi, Ms,
-                   dMe3, MM, dMx3, KK, Md, Mdd, P, dPs, Pd, Pdd, 0, s, depends, True)
+            _place(frm[s], s, A, dA3, nd, n_modes, eta, n_motions, qi, Ms, dMe3, MM, dMx3, KK,
+                   P, dPs, 0, s, depends, True)
+        if rates:
+            _place_rates(frm[s], s, A, Ad, Add, Ms, Md, Mdd, Pd, Pdd, s)
     return P, dP, Pd, Pdd
