@@ -275,6 +275,8 @@ def test_a_lagged_valve_starts_open_as_its_pressures_call_for():
     ({**CB, "spool_frequency": -5.0}, "counterbalance: spool_frequency: expected a number > 0"),
     ({**CB, "spool_frequency": 5.0, "spool_damping": 0.0},
      "counterbalance: spool_damping: expected a number > 0"),
+    ({**CB, "spool_frequency": 5.0, "spool_damping": None},
+     "counterbalance: spool_damping: expected a number > 0"),
     ({**CB, "spool_frequency": 5.0, "time_constant": 0.01},
      "counterbalance: spool_frequency: give the spool a first-order lag"),
 ])

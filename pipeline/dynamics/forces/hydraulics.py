@@ -319,8 +319,9 @@ class CounterbalanceValve:
                                   f"the spool follows its pilot at once), got {x!r}")
         for key in ("spool_frequency", "spool_damping"):
             x = getattr(self, key)
-            if x is not None and (isinstance(x, bool) or not isinstance(x, int | float)
-                                  or not x > 0 or not math.isfinite(x)):
+            if (x is not None or key == "spool_damping") and (
+                    isinstance(x, bool) or not isinstance(x, int | float) or not x > 0
+                    or not math.isfinite(x)):
                 raise ConfigError(f"counterbalance: {key}: expected a number > 0 (or none "
                                   f"for the frequency: the spool follows its pilot at "
                                   f"once), got {x!r}")
