@@ -246,9 +246,11 @@ def link_terms(body, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     has_G = bool(G.size)
     if not has_G:
         G = np.zeros((m, m, 4, 3))
-    return _one_body(np.ascontiguousarray(eta, dtype=float).reshape(m), body.C,
+    return _one_body(np.ascontiguousarray(eta, dtype=float).reshape(m),
+                     np.ascontiguousarray(body.C, dtype=float),
                      np.ascontiguousarray(body.Cp).reshape(m, 4, 4),
-                     np.ascontiguousarray(body.Cpp).reshape(m, m, 4, 4), G, has_G)
+                     np.ascontiguousarray(body.Cpp).reshape(m, m, 4, 4),
+                     np.ascontiguousarray(G, dtype=float), has_G)
 
 
 def second_order_acceleration(body, etad: np.ndarray) -> np.ndarray:
