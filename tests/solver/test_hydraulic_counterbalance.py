@@ -206,6 +206,7 @@ def test_a_second_order_spool_is_the_hand_written_model_with_its_opening_and_rat
         errors
 
 
+@pytest.mark.slow  # two 2 s runs at 0.25 ms and their references: ~20 s
 @pytest.mark.parametrize("damping", [0.05, 0.3])
 def test_a_lightly_damped_spool_hunts_and_damping_settles_it(damping):
     """Counterbalance hunting: 500 kg lowered through a valve whose 6 Hz spool is damped
