@@ -145,6 +145,12 @@ _AA, _AB, _L0, _STROKE, _VA0, _VB0, _BETA, _PS, _PT, _KV, _DPL, _LEAK, _VISC, _C
 ATMOSPHERE = 101325.0
 #: _MEAS of a controller on a marker's position (its point _MMK, its component _MCOMP)
 _ON_MARKER = -4
+
+
+def _number(x, above: float = -math.inf, at_least: float = -math.inf) -> bool:
+    """Is x a finite real number (not a bool) above ``above`` and at least ``at_least``?"""
+    return not isinstance(x, bool) and isinstance(x, int | float) and math.isfinite(x) \
+        and x > above and x >= at_least
 def marker_measurement(measured: str) -> tuple[str, str, int] | None:
     """(link, frame, axis 0..2) of a ``measured`` "marker:link.frame:x|y|z", None for any
     other signal; a ConfigError for a malformed one.
@@ -242,8 +248,7 @@ def check_gains(controller, what: str) -> None:
     and feedforward are finite numbers >= 0 (this module's PID and the sampled one)."""
     for key in ("kp", "ki", "kd", "feedforward"):
         x = getattr(controller, key)
-        if isinstance(x, bool) or not isinstance(x, int | float) or not x >= 0 \
-                or not math.isfinite(x):
+        if not _number(x, at_least=0.0):
             raise ConfigError(f"{what}: {key}: expected a gain >= 0, got {x!r}")
 
 
@@ -302,26 +307,21 @@ class CounterbalanceValve:
         for key in ("setting", "nominal_flow", "nominal_drop", "opening_range",
                     "line_volume"):
             x = getattr(self, key)
-            if isinstance(x, bool) or not isinstance(x, int | float) or not x > 0 \
-                    or not math.isfinite(x):
+            if not _number(x, above=0.0):
                 raise ConfigError(f"counterbalance: {key}: expected a number > 0, got {x!r}")
         for key in ("pilot_ratio", "initial_pressure"):
             x = getattr(self, key)
-            if isinstance(x, bool) or not isinstance(x, int | float) or not math.isfinite(x) \
-                    or (key == "pilot_ratio" and x < 0):
+            if not _number(x, at_least=0.0 if key == "pilot_ratio" else -math.inf):
                 raise ConfigError(f"counterbalance: {key}: expected a finite number"
                                   f"{' >= 0' if key == 'pilot_ratio' else ''}, got {x!r}")
         for key in ("time_constant", "closing_time_constant"):
             x = getattr(self, key)
-            if x is not None and (isinstance(x, bool) or not isinstance(x, int | float)
-                                  or not x > 0 or not math.isfinite(x)):
+            if x is not None and not _number(x, above=0.0):
                 raise ConfigError(f"counterbalance: {key}: expected seconds > 0 (or none: "
                                   f"the spool follows its pilot at once), got {x!r}")
         for key in ("spool_frequency", "spool_damping"):
             x = getattr(self, key)
-            if (x is not None or key == "spool_damping") and (
-                    isinstance(x, bool) or not isinstance(x, int | float) or not x > 0
-                    or not math.isfinite(x)):
+            if (x is not None or key == "spool_damping") and not _number(x, above=0.0):
                 raise ConfigError(f"counterbalance: {key}: expected a number > 0 (or none "
                                   f"for the frequency: the spool follows its pilot at "
                                   f"once), got {x!r}")
@@ -469,14 +469,12 @@ class HydraulicCylinder(CompiledElement, LineElement):
         for key in ("bore", "stroke", "length_retracted", "bulk_modulus", "nominal_drop",
                     "friction_velocity", "laminar_drop"):
             x = getattr(self, key)
-            if isinstance(x, bool) or not isinstance(x, int | float) or not x > 0 \
-                    or not math.isfinite(x):
+            if not _number(x, above=0.0):
                 raise ConfigError(f"{where}: {key}: expected a number > 0, got {x!r}")
         for key in ("rod", "supply_pressure", "nominal_flow", "leakage", "viscous_friction",
                     "coulomb_friction"):
             x = getattr(self, key)
-            if isinstance(x, bool) or not isinstance(x, int | float) or not x >= 0 \
-                    or not math.isfinite(x):
+            if not _number(x, at_least=0.0):
                 raise ConfigError(f"{where}: {key}: expected a number >= 0, got {x!r}")
         a = self.air_content
         if isinstance(a, bool) or not isinstance(a, int | float) or not 0.0 <= a < 1.0:
@@ -518,8 +516,7 @@ class HydraulicCylinder(CompiledElement, LineElement):
                               f"({self.bore} m), got {self.rod}")
         for key in ("dead_volume_a", "dead_volume_b"):
             x = getattr(self, key)
-            if x is not None and (isinstance(x, bool) or not isinstance(x, int | float)
-                                  or not x > 0 or not math.isfinite(x)):
+            if x is not None and not _number(x, above=0.0):
                 raise ConfigError(f"{where}: {key}: expected a volume > 0 m^3, got {x!r}")
         p = self.initial_pressures
         if not (isinstance(p, tuple | list) and len(p) == 2 and list(p).count("hold") <= 1
@@ -531,14 +528,12 @@ class HydraulicCylinder(CompiledElement, LineElement):
         if self.pump_flow is not None:
             for key in ("pump_flow", "relief_pressure", "relief_gain", "supply_volume"):
                 x = getattr(self, key)
-                if isinstance(x, bool) or not isinstance(x, int | float) or not x > 0 \
-                        or not math.isfinite(x):
+                if not _number(x, above=0.0):
                     raise ConfigError(f"{where}: {key}: a pump of given flow needs a number "
                                       f"> 0 here, got {x!r}")
         for key in ("spool_time_constant", "spool_frequency", "spool_damping"):
             x = getattr(self, key)
-            if x is not None and (isinstance(x, bool) or not isinstance(x, int | float)
-                                  or not x > 0 or not math.isfinite(x)):
+            if x is not None and not _number(x, above=0.0):
                 raise ConfigError(f"{where}: {key}: expected a number > 0, got {x!r}")
         if self.spool_time_constant is not None and self.spool_frequency is not None:
             raise ConfigError(f"{where}: spool_frequency: give the spool a first-order lag "
@@ -546,8 +541,7 @@ class HydraulicCylinder(CompiledElement, LineElement):
                               f"(spool_frequency, spool_damping), not both")
         for key in ("end_stiffness", "end_damping"):
             x = getattr(self, key)
-            if x is not None and (isinstance(x, bool) or not isinstance(x, int | float)
-                                  or not x >= 0 or not math.isfinite(x)):
+            if x is not None and not _number(x, at_least=0.0):
                 raise ConfigError(f"{where}: {key}: expected a number >= 0, got {x!r}")
         o = self.spool_overlap
         if isinstance(o, bool) or not isinstance(o, int | float) or not -1.0 < o < 1.0:
@@ -872,6 +866,14 @@ def opening(par, x):
 
 
 @njit(cache=True)
+def spool_acceleration(w, zeta, target, x, v):
+    """x'' of a spool that is a mass on its spring (the directional valve's, a
+    counterbalance valve's): w^2 (target - x) - 2 zeta w x', at its natural angular
+    frequency w (rad/s) and damping ratio zeta."""
+    return w * w * (target - x) - 2.0 * zeta * w * v
+
+
+@njit(cache=True)
 def valve_rates(par, u, length, sd, z, o, zd):
     """zd[o:] = the rates of the element's states z[o:] (module docstring: pressures, the
     supply line's, the spool's) at the command u, length (m) and stroke rate sd (m/s)."""
@@ -899,9 +901,8 @@ def valve_rates(par, u, length, sd, z, o, zd):
     if order == 1:
         zd[k] = (u - z[k]) / par[_TAU]
     elif order == 2:
-        w = par[_WV]
         zd[k] = z[k + 1]
-        zd[k + 1] = w * w * (u - z[k]) - 2.0 * par[_ZV] * w * z[k + 1]
+        zd[k + 1] = spool_acceleration(par[_WV], par[_ZV], u, z[k], z[k + 1])
 
 
 @njit(cache=True)
@@ -1015,9 +1016,8 @@ def pressure_rates(par, length, sd, pa, pb, psup, pc, ac, vc, x, out):
     if side > 0 and lag == 1:
         out[4] = counterbalance_lag(par, ac, target)
     elif side > 0 and lag == 2:
-        w = par[_CBW]
         out[4] = vc
-        out[5] = w * w * (target - ac) - 2.0 * par[_CBZ] * w * vc
+        out[5] = spool_acceleration(par[_CBW], par[_CBZ], target, ac, vc)
     ql = par[_LEAK] * (pa - pb)
     # a stroke beyond the ends (into the end stops, or without them: the run's checks
     # report it) must not empty a chamber: its volume is kept above a tenth of its dead
